@@ -1,0 +1,43 @@
+"""Exceptions and warnings raised by moli.
+
+Every exception subclasses :class:`ValueError`, so callers may catch either the
+specific class or the builtin one.
+"""
+
+from __future__ import annotations
+
+
+class MoliError(ValueError):
+    """Base class of the errors moli raises on bad input."""
+
+
+class DataError(MoliError):
+    """The input-output data are unusable as given (shape, NaN, too short...)."""
+
+
+class StructureError(MoliError):
+    """A list of observability indices is invalid for the data."""
+
+
+class FilterError(MoliError):
+    """A filter polynomial is not monic, not stable, or cannot serve the list."""
+
+
+class OptionError(MoliError):
+    """An option has an unknown name or an invalid value."""
+
+
+class ModelFileError(MoliError):
+    """A saved model file is unreadable or inconsistent."""
+
+
+class UnstableModelWarning(UserWarning):
+    """An identified model has poles on or outside the unit circle."""
+
+
+class IllConditionedWarning(UserWarning):
+    """A least-squares problem is rank deficient or badly conditioned."""
+
+
+class HoldoutWarning(UserWarning):
+    """No validation data were given, so the tail of the record was held out."""

@@ -1,0 +1,239 @@
+"""Parameter estimation: one linear least-squares problem per output.
+
+For output ``j`` with index ``l`` and divisor ``alpha_j``, the regressors are the
+signals ``z = [y, u]`` filtered by ``q^i / alpha_j(q)``, ``i = 0..l-1``, plus the
+current outputs ``y_i``, ``i < j``. Since ``q^i/alpha_j = q^(i-l) (q^l/alpha_j)``,
+all of them are delays of the single filtered signal ``lfilter(1, alpha_j, z)``.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Sequence
+
+import numpy as np
+import scipy.linalg
+from scipy.signal import lfilter
+
+from .data import IOData
+from .errors import DataError, IllConditionedWarning
+from .filters import check_alpha, divisors
+from .model import StateSpaceModel
+from .structure import Indices, check_indices, parameter_counts
+
+# Condition numbers (of the column-scaled regressor) above this are reported:
+# beyond it the solution has lost at least 10 of its 16 significant digits.
+COND_LIMIT = 1e10
+
+
+def filtered_regressors(z: np.ndarray, alpha_j: np.ndarray) -> np.ndarray:
+    """Regressors ``(q^i/alpha_j(q)) z_r`` for all channels ``r`` and ``i = 0..l-1``.
+
+    Parameters
+    ----------
+    z : ndarray, shape (N, c)
+        Signals, zero initial filter state.
+    alpha_j : ndarray, shape (l + 1,)
+        Monic filter denominator.
+
+    Returns
+    -------
+    ndarray, shape (N, c * l)
+        Column ``r * l + i`` holds channel ``r`` filtered by ``q^i / alpha_j``.
+    """
+    N, c = z.shape
+    l = alpha_j.size - 1
+    base = lfilter([1.0], alpha_j, z, axis=0)
+    phi = np.zeros((N, c, l))
+    for i in range(l):
+        delay = l - i
+        phi[delay:, :, i] = base[: N - delay]
+    return phi.reshape(N, c * l)
+
+
+def solve_batch(phi: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Least squares ``phi[r] theta[r] ~ target[r]`` for a batch, by QR.
+
+    Parameters
+    ----------
+    phi : ndarray, shape (R, N, k)
+    target : ndarray, shape (R, N)
+
+    Returns
+    -------
+    theta : ndarray, shape (R, k)
+    cond : ndarray, shape (R,)
+        Condition estimate ``max|r_ii| / min|r_ii|`` of the column-scaled problem.
+        Rank-deficient problems get the minimum-norm solution.
+    """
+    norms = np.linalg.norm(phi, axis=1, keepdims=True)
+    norms[norms == 0] = 1.0
+    scaled = phi / norms
+    q, r = np.linalg.qr(scaled)
+    diag = np.abs(np.diagonal(r, axis1=1, axis2=2))
+    with np.errstate(divide="ignore"):
+        cond = diag.max(axis=1) / diag.min(axis=1)
+    rhs = np.einsum("rnk,rn->rk", q, target)
+    theta = np.empty(rhs.shape)
+    good = cond < 1e13
+    if good.any():
+        theta[good] = np.linalg.solve(r[good], rhs[good][..., None])[..., 0]
+    for i in np.flatnonzero(~good):
+        theta[i] = scipy.linalg.lstsq(scaled[i], target[i])[0]
+    return theta / norms[:, 0, :], cond
+
+
+def realize(
+    thetas: Sequence[np.ndarray], alphas: Sequence[Sequence[np.ndarray]], indices: Indices, m: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """State-space matrices of a batch of fitted observer-form models.
+
+    Parameters
+    ----------
+    thetas : sequence of ndarray
+        Per output ``j``, the parameters of the batch, shape (R, (p+m) l_j + j).
+    alphas : sequence of sequences of ndarray
+        ``alphas[r][j]`` is candidate ``r``'s divisor for output ``j``.
+    indices : tuple of int
+    m : int
+        Number of inputs.
+
+    Returns
+    -------
+    A, B, C : ndarray, shapes (R, n, n), (R, n, m), (R, p, n)
+    """
+    p = len(indices)
+    R = thetas[0].shape[0]
+    n = sum(indices)
+    starts = np.concatenate([[0], np.cumsum(indices)[:-1]])
+    A_D = np.zeros((R, n, n))
+    D = np.zeros((R, n, p))
+    B = np.zeros((R, n, m))
+    C = np.zeros((R, p, n))
+    for j, (l, s) in enumerate(zip(indices, starts)):
+        block = slice(s, s + l)
+        A_D[:, s + 1 : s + l, s : s + l - 1] += np.eye(l - 1)
+        A_D[:, block, s + l - 1] = -np.array([alphas[r][j][:0:-1] for r in range(R)])
+        coeffs = thetas[j][:, : (p + m) * l].reshape(R, p + m, l).transpose(0, 2, 1)
+        D[:, block] = coeffs[:, :, :p]
+        B[:, block] = coeffs[:, :, p:]
+        # (I - G) C = C_D with G strictly lower triangular: forward substitution
+        C[:, j, s + l - 1] = 1.0
+        g = thetas[j][:, (p + m) * l :]
+        C[:, j] += np.einsum("ri,rin->rn", g, C[:, :j])
+    A = A_D + D @ C
+    return A, B, C
+
+
+def fit_batch(
+    z: np.ndarray, indices: Indices, alphas: Sequence[Sequence[np.ndarray]]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Estimate one model per candidate filter on the same data.
+
+    Parameters
+    ----------
+    z : ndarray, shape (N, p + m)
+        Outputs then inputs.
+    indices : tuple of int
+    alphas : sequence of sequences of ndarray
+        ``alphas[r][j]``: divisor of output ``j`` for candidate ``r``.
+
+    Returns
+    -------
+    A, B, C : ndarray
+        Batch matrices, see :func:`realize`.
+    cond : ndarray, shape (R,)
+        Worst condition estimate over the outputs of each candidate.
+    """
+    p = len(indices)
+    m = z.shape[1] - p
+    skip = max(indices)
+    R = len(alphas)
+    thetas = []
+    cond = np.ones(R)
+    filtered: dict[tuple[int, int], np.ndarray] = {}
+    for j, l in enumerate(indices):
+        phis = []
+        for r in range(R):
+            key = (r, l)
+            if key not in filtered:
+                filtered[key] = filtered_regressors(z, alphas[r][j])[skip:]
+            phis.append(np.concatenate([filtered[key], z[skip:, :j]], axis=1))
+        phi = np.stack(phis)
+        theta, c = solve_batch(phi, np.broadcast_to(z[skip:, j], phi.shape[:2]))
+        thetas.append(theta)
+        cond = np.maximum(cond, c)
+    A, B, C = realize(thetas, alphas, indices, m)
+    return A, B, C, cond
+
+
+def check_sample_count(N: int, indices: Indices, m: int) -> None:
+    """Raise :class:`DataError` unless each output's regression has more rows than unknowns."""
+    need = int(parameter_counts(indices, m).max()) + max(indices) + 1
+    if N < need:
+        raise DataError(
+            f"too few samples: the list {list(indices)} with {m} inputs needs at least "
+            f"{need} samples ({need - max(indices)} rows after the filter transient), got {N}"
+        )
+
+
+def estimate(data: IOData, indices: Sequence[int], alpha: Sequence[float]) -> StateSpaceModel:
+    """Estimate a model for a fixed list of indices and filter polynomial.
+
+    Parameters
+    ----------
+    data : IOData
+        Estimation data (remove means beforehand if the plant has offsets).
+    indices : sequence of int
+        Observability indices, one per output.
+    alpha : array_like
+        Monic, stable filter polynomial of degree ``max(indices)``, e.g. from
+        :func:`moli.filter_polynomial`.
+
+    Returns
+    -------
+    StateSpaceModel
+        Discrete-time model, no feedthrough, in the observer form's coordinates.
+
+    Warns
+    -----
+    IllConditionedWarning
+        If a least-squares problem is badly conditioned (poor excitation).
+    UnstableModelWarning
+        If the model has poles on or outside the unit circle.
+
+    Examples
+    --------
+    >>> import numpy as np, moli
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.standard_normal(300)
+    >>> y = np.zeros(300)
+    >>> for k in range(1, 300):
+    ...     y[k] = 0.8 * y[k - 1] + 0.5 * u[k - 1]
+    >>> model = moli.estimate(moli.IOData(y, u), [1], moli.filter_polynomial(1.0, 1.0, [1]))
+    >>> np.round(model.poles().real, 6)
+    array([0.8])
+    """
+    if not isinstance(data, IOData):
+        raise DataError(f"data must be an IOData, got {type(data).__name__}")
+    idx = check_indices(indices, data.p)
+    coeffs = check_alpha(alpha)
+    alphas = divisors(coeffs, idx)
+    check_sample_count(data.N, idx, data.m)
+    z = np.concatenate([data.y, data.u], axis=1)
+    A, B, C, cond = fit_batch(z, idx, [alphas])
+    if cond[0] > COND_LIMIT:
+        warnings.warn(
+            f"least-squares problem for list {list(idx)} is badly conditioned "
+            f"(condition ~{cond[0]:.2g}): the input may not excite the plant enough, or the "
+            "order is too high for the data",
+            IllConditionedWarning,
+            stacklevel=2,
+        )
+    model = StateSpaceModel(
+        A[0], B[0], C[0], Ts=data.Ts, output_names=data.output_names,
+        input_names=data.input_names, indices=idx, alpha=coeffs,
+        y_offset=data.y_offset, u_offset=data.u_offset,
+    )
+    model.warn_if_unstable(stacklevel=2)
+    return model

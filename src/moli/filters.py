@@ -1,0 +1,220 @@
+"""Filter polynomials: alpha from eta = (wc, zeta), and its divisors alpha_j.
+
+Root rule (documented choice)
+-----------------------------
+``alpha`` has degree ``nbar = max(indices)``. Its dominant roots are the
+discretized second-order pair of cutoff ``wc`` and damping ``zeta``; the next
+roots are successive powers ``z**s``, ``(z**s)**s``, ...; an odd ``nbar`` ends with
+the real root ``|z_last|**s`` and ``nbar = 1`` is the single real root
+``exp(-zeta wc Ts)``. When ``nbar`` is even, ``zeta < 1`` and some index is odd
+and below ``nbar``, the fastest pair is replaced by a double real root of the
+same modulus so that a real root is available.
+
+Each output's divisor ``alpha_j`` of degree ``l_j`` takes the roots of ``alpha``
+slowest first (largest modulus), conjugate pairs kept together; an odd ``l_j``
+first takes the slowest real root. ``alpha_j = alpha`` when ``l_j = nbar``.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from .errors import FilterError
+from .structure import Indices
+
+# Imaginary parts below this (relative to the modulus) are treated as a real root:
+# np.roots returns a double real root as a pair split by about sqrt(eps).
+_REAL_TOL = 1e-6
+
+
+def _dominant_roots(wc: float, zeta: float, Ts: float) -> np.ndarray:
+    a = wc * Ts
+    if zeta < 1:
+        z = np.exp(a * (-zeta + 1j * np.sqrt(1 - zeta**2)))
+        return np.array([z, np.conj(z)])
+    r = np.sqrt(zeta**2 - 1)
+    return np.exp(a * np.array([-zeta + r, -zeta - r])).astype(complex)
+
+
+def filter_roots(
+    wc: float, zeta: float, indices: Sequence[int], Ts: float = 1.0, s: float = 2.0
+) -> np.ndarray:
+    """Roots of the filter polynomial alpha for ``eta = (wc, zeta)``.
+
+    See :func:`filter_polynomial` for the parameters.
+    """
+    indices = tuple(int(v) for v in indices)
+    if not indices or min(indices) < 1:
+        raise FilterError(f"indices must be positive integers, got {indices}")
+    if not (np.isfinite(wc) and wc > 0 and np.isfinite(zeta) and zeta > 0):
+        raise FilterError(f"wc and zeta must be positive and finite, got wc={wc}, zeta={zeta}")
+    if not (np.isfinite(s) and s > 1):
+        raise FilterError(f"the spacing factor s must be > 1, got {s}")
+    if not (np.isfinite(Ts) and Ts > 0):
+        raise FilterError(f"Ts must be positive, got {Ts}")
+    nbar = max(indices)
+    if nbar == 1:
+        return np.array([np.exp(-zeta * wc * Ts)], dtype=complex)
+    roots: list[complex] = []
+    pair = _dominant_roots(wc, zeta, Ts)
+    while len(roots) + 2 <= nbar:
+        roots.extend(pair)
+        pair = pair**s
+    if len(roots) < nbar:
+        roots.append(complex(abs(roots[-1]) ** s))
+    needs_real = any(l % 2 == 1 and l < nbar for l in indices)
+    if needs_real and nbar % 2 == 0 and zeta < 1:
+        radius = abs(roots[-1])
+        roots[-2:] = [complex(radius), complex(radius)]
+    return np.array(roots)
+
+
+def filter_polynomial(
+    wc: float, zeta: float, indices: Sequence[int], Ts: float = 1.0, s: float = 2.0
+) -> np.ndarray:
+    """Monic coefficients of the filter polynomial alpha.
+
+    Parameters
+    ----------
+    wc : float
+        Cutoff frequency of the dominant pair, rad per time unit of ``Ts``.
+    zeta : float
+        Damping of the dominant pair (``>= 1`` gives two real roots).
+    indices : sequence of int
+        List of observability indices; ``alpha`` has degree ``max(indices)`` and is
+        built so that every index gets a valid divisor.
+    Ts : float, default 1.0
+        Sampling period.
+    s : float, default 2.0
+        Spacing factor of the faster roots (``z**s``).
+
+    Returns
+    -------
+    ndarray, shape (max(indices) + 1,)
+        ``[1, a_1, ..., a_nbar]``, highest power first.
+
+    Examples
+    --------
+    >>> filter_polynomial(0.5, 1.0, [1])
+    array([ 1.        , -0.60653066])
+    """
+    return np.real(np.poly(filter_roots(wc, zeta, indices, Ts, s)))
+
+
+def check_alpha(alpha: Sequence[float]) -> np.ndarray:
+    """Validate a filter polynomial: real, monic, all roots strictly inside the unit circle."""
+    try:
+        coeffs = np.array(alpha, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise FilterError(f"alpha must be a sequence of real coefficients, got {alpha!r}") from None
+    if coeffs.size < 2 or not np.all(np.isfinite(coeffs)):
+        raise FilterError(f"alpha must be finite with degree >= 1, got {coeffs}")
+    if coeffs[0] != 1.0:
+        raise FilterError(f"alpha must be monic (leading coefficient 1), got leading {coeffs[0]}")
+    radius = np.max(np.abs(np.roots(coeffs)))
+    if radius >= 1.0:
+        raise FilterError(
+            f"alpha must be stable (roots strictly inside the unit circle); "
+            f"its largest root modulus is {radius:.6g}"
+        )
+    return coeffs
+
+
+def _root_groups(roots: np.ndarray) -> list[np.ndarray]:
+    """Group roots into conjugate pairs and real singles, slowest first."""
+    scale = np.maximum(np.abs(roots), 1e-300)
+    is_real = np.abs(roots.imag) <= _REAL_TOL * scale
+    groups = [np.array([r.real]) for r in roots[is_real]]
+    upper = roots[~is_real & (roots.imag > 0)]
+    groups += [np.array([r, np.conj(r)]) for r in upper]
+    # slowest (largest modulus) first; a real root after a pair of equal modulus
+    groups.sort(key=lambda g: (-abs(g[0]), g.size == 1, -abs(np.angle(g[0]))))
+    return groups
+
+
+def _pick_divisor(roots: np.ndarray, degree: int) -> np.ndarray:
+    """Coefficients of the divisor of the given degree chosen from ``roots`` by the root rule."""
+    groups = _root_groups(roots)
+    chosen: list[np.ndarray] = []
+    budget = degree
+    if degree % 2 == 1:
+        reals = [i for i, g in enumerate(groups) if g.size == 1]
+        if not reals:
+            raise FilterError(
+                f"alpha with roots {np.round(roots, 6).tolist()} has no real root, so it has "
+                f"no divisor of odd degree {degree}; build alpha with "
+                "filter_polynomial(..., indices) so that it carries one"
+            )
+        chosen.append(groups.pop(reals[0]))
+        budget -= 1
+    for g in groups:
+        if budget == 0:
+            break
+        if g.size <= budget:
+            chosen.append(g)
+            budget -= g.size
+    if budget:
+        raise FilterError(f"cannot pick a real divisor of degree {degree} from alpha's roots")
+    return np.real(np.poly(np.concatenate(chosen)))
+
+
+def divisor(alpha: Sequence[float], degree: int) -> np.ndarray:
+    """The monic divisor of ``alpha`` of the given degree (see the module's root rule).
+
+    Parameters
+    ----------
+    alpha : array_like
+        Monic, stable filter polynomial.
+    degree : int
+        Degree ``l_j`` of the divisor, ``1 <= degree <= deg(alpha)``.
+
+    Returns
+    -------
+    ndarray, shape (degree + 1,)
+
+    Raises
+    ------
+    FilterError
+        If ``degree`` is odd, below ``deg(alpha)`` and ``alpha`` has no real root.
+
+    Examples
+    --------
+    >>> divisor([1.0, -1.5, 0.56], 1)
+    array([ 1. , -0.8])
+    """
+    coeffs = check_alpha(alpha)
+    nbar = coeffs.size - 1
+    if not 1 <= degree <= nbar:
+        raise FilterError(f"a divisor of alpha (degree {nbar}) needs degree 1..{nbar}, got {degree}")
+    if degree == nbar:
+        return coeffs
+    return _pick_divisor(np.roots(coeffs), degree)
+
+
+def divisors(alpha: Sequence[float], indices: Indices) -> list[np.ndarray]:
+    """One divisor ``alpha_j`` per index (degree ``l_j``); see :func:`divisor`."""
+    coeffs = check_alpha(alpha)
+    if coeffs.size - 1 != max(indices):
+        raise FilterError(
+            f"alpha must have degree max(indices) = {max(indices)}, got degree {coeffs.size - 1}"
+        )
+    cache: dict[int, np.ndarray] = {}
+    for l in set(indices):
+        cache[l] = divisor(coeffs, l)
+    return [cache[l] for l in indices]
+
+
+def filter_divisors(
+    wc: float, zeta: float, indices: Indices, Ts: float = 1.0, s: float = 2.0
+) -> list[np.ndarray]:
+    """The divisors ``alpha_j`` of the filter built from ``eta = (wc, zeta)``.
+
+    Equivalent to ``divisors(filter_polynomial(wc, zeta, indices, Ts, s), indices)``
+    but picks the roots directly, without a round trip through the coefficients.
+    """
+    roots = filter_roots(wc, zeta, indices, Ts, s)
+    nbar = roots.size
+    cache = {l: (np.real(np.poly(roots)) if l == nbar else _pick_divisor(roots, l)) for l in set(indices)}
+    return [cache[l] for l in indices]
