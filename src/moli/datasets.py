@@ -1,0 +1,442 @@
+"""Loaders for the DaISy benchmark data sets (KU Leuven, ESAT/STADIUS).
+
+``load_daisy(name)`` returns an :class:`~moli.data.IOData` with the inputs and outputs
+of one DaISy file: time stamps and sample counters are dropped, channels are named, and
+``Ts`` is the sampling period the DaISy description states. Where the description leaves
+the period blank, ``Ts = 1.0`` (one sample) and :func:`list_daisy` reports
+``Ts_stated=False``; no period has been guessed.
+
+Files are looked up, in this order, in ``data_dir``, in the directory named by the
+environment variable ``MOLI_DATA_DIR`` and in the cache directory ``<cache>/daisy``, where
+``<cache>`` is ``$MOLI_CACHE_DIR``, else ``$XDG_CACHE_HOME/moli``, else ``~/.cache/moli``.
+A file found nowhere is downloaded once from the DaISy server (``NAME.dat.gz``) into the
+cache, checked against its known SHA-256 sum (or, for the three sets without one, against
+its known shape) and read from there afterwards.
+
+Please cite DaISy when you publish results on these data: De Moor B.L.R. (ed.), *DaISy:
+Database for the Identification of Systems*, Department of Electrical Engineering,
+ESAT/STADIUS, KU Leuven, Belgium, https://homes.esat.kuleuven.be/~smc/daisy/.
+"""
+
+from __future__ import annotations
+
+import gzip
+import hashlib
+import io
+import os
+import tempfile
+import urllib.request
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO
+
+import numpy as np
+
+from .data import IOData
+from .errors import DataError, MoliError, OptionError
+
+DAISY_BASE_URL = "https://ftp.esat.kuleuven.be/pub/SISTA/data"
+"""Server folder that holds ``<folder>/NAME.dat.gz`` for every DaISy set."""
+
+DOWNLOAD_TIMEOUT = 30.0
+"""Seconds to wait for the DaISy server before giving up."""
+
+DESTILL_NOISE_LEVELS = (0, 10, 20, 30)
+DISTILL2_STEPS = (1, 2, 3)
+
+
+class DatasetUnavailableError(MoliError):
+    """A DaISy file is in none of the searched directories and cannot be downloaded."""
+
+
+class DatasetChecksumError(MoliError):
+    """A downloaded DaISy file differs from the one this library knows."""
+
+
+@dataclass(frozen=True)
+class DaisyInfo:
+    """What the library knows about one DaISy data set.
+
+    Attributes
+    ----------
+    name : str
+        File name without ``.dat``.
+    p, m : int
+        Number of outputs and inputs returned by :func:`load_daisy`.
+    N : int
+        Number of samples.
+    Ts : float
+        Sampling period in ``Ts_unit``; 1.0 when DaISy does not state it.
+    Ts_unit : str
+        ``"s"``, ``"min"``, or ``"sample"`` when the period is not stated.
+    Ts_stated : bool
+        False when DaISy gives no sampling period (then ``Ts = 1.0``).
+    description : str
+        One line on the process.
+    url : str
+        Download address of ``NAME.dat.gz``.
+    sha256 : str or None
+        SHA-256 of the uncompressed file, when known.
+    """
+
+    name: str
+    p: int
+    m: int
+    N: int
+    Ts: float
+    Ts_unit: str
+    Ts_stated: bool
+    description: str
+    url: str
+    sha256: str | None
+
+
+@dataclass(frozen=True)
+class _Spec:
+    folder: str
+    description: str
+    shape: tuple[int, int]  # rows and columns of the file
+    u_cols: tuple[int, ...]  # 0-based; for destill the noise-free block
+    y_cols: tuple[int, ...]
+    inputs: tuple[str, ...]
+    outputs: tuple[str, ...]
+    Ts: float | None  # None: not stated by DaISy
+    Ts_unit: str = "s"
+    sha256: str | None = None
+
+
+def _span(start: int, stop: int) -> tuple[int, ...]:
+    return tuple(range(start, stop))
+
+
+_PI, _ME, _TH = "process_industry", "mechanical", "thermic"
+
+_SPECS: dict[str, _Spec] = {
+    "ballbeam": _Spec(
+        _ME, "ball and beam: beam angle to ball position", (1000, 2), (0,), (1,),
+        ("beam angle",), ("ball position",), 0.1,
+        sha256="e9c48a4f7474953969d4950b4ef72558084b1995f776792ac0cbc80550e6ff42"),
+    "CD_player_arm": _Spec(
+        _ME, "CD-player arm, closed-loop data converted to open loop", (2048, 4), (0, 1), (2, 3),
+        ("force 1", "force 2"), ("tracking 1", "tracking 2"), None,
+        sha256="a2ef4bf51c3102487a0690c7a68d97f3b1966cd07319580011a97fc0af904eaa"),
+    "cstr": _Spec(
+        _PI, "continuous stirred tank reactor (simulated)", (7500, 4), (1,), (2, 3),
+        ("coolant flow q",), ("concentration Ca", "temperature T"), 0.1, "min",
+        sha256="0ffdda8a1b962d377dc34371be105bd9dcaef7fcca40554e666841efeec6b84d"),
+    "destill": _Spec(
+        _PI, "ethane-ethylene distillation column (simulated), 4 noise levels", (90, 33),
+        _span(1, 6), _span(21, 24),
+        ("reboiler duty/feed", "reflux/feed", "distillate/feed", "feed ethane", "top pressure"),
+        ("top ethane", "bottom ethylene", "differential pressure"), 15.0, "min",
+        sha256="cb2fe8d4cc6c461c443f03974e97f76a3145559c0099b2319f523d374747057d"),
+    "distill2": _Spec(
+        _PI, "fractional distillation column (simulated), step responses", (251, 7),
+        (), _span(1, 7),
+        ("cooling temperature", "reboiling temperature", "pressure"),
+        ("top product flow", "C4 concentration"), 10.0,
+        sha256="837cc6243c0b20080a89a6207c5fb14928ac5cfa922b73a02c4bbab2a3fd5346"),
+    "dryer": _Spec(
+        _ME, "laboratory hair dryer: heater voltage to outlet air temperature", (1000, 2),
+        (0,), (1,), ("heater voltage",), ("outlet temperature",), None,
+        sha256="adcb2f5a1d9e174d08dd49f7f037626745b5e69cbda0bc1e8dca2a7c687d4538"),
+    "dryer2": _Spec(
+        _PI, "industrial dryer (Cambridge Control)", (867, 7), (1, 2, 3), (4, 5, 6),
+        ("fuel flow", "exhaust fan speed", "raw material flow"),
+        ("dry bulb temperature", "wet bulb temperature", "moisture content"), 10.0,
+        sha256="0b3a3d6341212c9919a60a8ac06c1bd6069f055f4d72bc27da767f66a47cafc1"),
+    "evaporator": _Spec(
+        _PI, "industrial four-stage evaporator", (6305, 6), (0, 1, 2), (3, 4, 5),
+        ("feed flow", "vapour flow", "cooling water flow"),
+        ("dry matter content", "product flow", "product temperature"), None,
+        sha256="3a74c747140602e44b9d099c73170656ac56d43d9241cf85ff84822f2d230f13"),
+    "exchanger": _Spec(
+        _PI, "liquid-saturated steam heat exchanger", (4000, 3), (1,), (2,),
+        ("liquid flow q",), ("outlet temperature",), 1.0,
+        sha256="cfb5a447fb573f87de33760e156cbf5da1f9802ae8a03a1b3c39ce8eb656fa6c"),
+    "flutter": _Spec(
+        _ME, "wing flutter (details confidential)", (1024, 2), (0,), (1,),
+        ("u",), ("y",), None,
+        sha256="e944d4bc32ac403bc20f64e45afff525456dd19166962ebcc47a2cc9f9b39d81"),
+    "glassfurnace": _Spec(
+        _PI, "glass furnace (Philips), six temperatures in one cross section", (1247, 10),
+        (1, 2, 3), _span(4, 10), ("heating 1", "cooling", "heating 2"),
+        tuple(f"temperature {i}" for i in range(1, 7)), None,
+        sha256="073cc118b7aaf589da46b8472be1767ed5240186a4d00df36bc389326a3f8f35"),
+    "heating_system": _Spec(
+        _TH, "lamp-heated steel plate", (801, 3), (1,), (2,),
+        ("lamp voltage",), ("plate temperature",), 2.0,
+        sha256="3bfbe8424719830870b153067eeff40ebff3afb0204c150ed7103b5d6c1908bc"),
+    "pHdata": _Spec(
+        _PI, "pH neutralisation in a stirred tank (simulated)", (2001, 4), (1, 2), (3,),
+        ("acid flow", "base flow"), ("pH",), 10.0,
+        sha256="9b84a2c8b8ec614803f9d75dec7e4eaaa933d45c645d24794bb11ce185f0e7e4"),
+    "robot_arm": _Spec(
+        _ME, "flexible robot arm: reaction torque to arm acceleration", (1024, 2), (0,), (1,),
+        ("reaction torque",), ("arm acceleration",), None,
+        sha256="4ee167a8a28ce0da868d1b42f6a2fe0c456ea0e56b60c70915bf6d4a2a933635"),
+    "thermic_res_wall": _Spec(
+        _TH, "heat flow through a two-layer wall", (1680, 3), (0, 1), (2,),
+        ("internal temperature", "external temperature"), ("heat flow density",), None,
+        sha256="b9fb76c775ede37958a71d1c584410fc4352e5ac64ca541e0cc926797e1ab7c1"),
+    # The next three have no published checksum: their shape is checked instead.
+    "steamgen": _Spec(
+        _PI, "steam generator model, Abbott Power Plant", (9600, 9), _span(1, 5), _span(5, 9),
+        ("fuel", "air", "level reference", "load disturbance"),
+        ("drum pressure", "excess oxygen", "drum water level", "steam flow"), 3.0),
+    "winding": _Spec(
+        _PI, "web winding test setup", (2500, 7), _span(0, 5), (5, 6),
+        ("speed S1", "speed S2", "speed S3", "current I1*", "current I3*"),
+        ("tension T1", "tension T3"), 0.1),
+    # Columns 9-11 ("Yr") are not explained by DaISy and are not returned.
+    "powerplant": _Spec(
+        _PI, "120 MW power plant, Pont-sur-Sambre", (200, 12), _span(1, 6), _span(6, 9),
+        ("gas flow", "turbine valves", "spray flow", "gas dampers", "air flow"),
+        ("steam pressure", "main steam temperature", "reheat steam temperature"), 1228.8),
+}
+
+
+def _spec(name: str) -> _Spec:
+    try:
+        return _SPECS[name]
+    except KeyError:
+        raise OptionError(
+            f"unknown DaISy data set {name!r}; known: {', '.join(sorted(_SPECS, key=str.lower))}"
+        ) from None
+
+
+def daisy_url(name: str) -> str:
+    """Download address of ``NAME.dat.gz`` on the DaISy server.
+
+    Examples
+    --------
+    >>> daisy_url("evaporator")
+    'https://ftp.esat.kuleuven.be/pub/SISTA/data/process_industry/evaporator.dat.gz'
+    """
+    return f"{DAISY_BASE_URL}/{_spec(name).folder}/{name}.dat.gz"
+
+
+def list_daisy() -> list[DaisyInfo]:
+    """Every DaISy data set :func:`load_daisy` knows.
+
+    For ``destill`` the numbers are those of one noise level, for ``distill2`` those of
+    one step response (see :func:`load_daisy`).
+
+    Returns
+    -------
+    list of DaisyInfo
+
+    Examples
+    --------
+    >>> info = {d.name: d for d in list_daisy()}
+    >>> info["evaporator"].p, info["evaporator"].m, info["evaporator"].N
+    (3, 3, 6305)
+    >>> info["evaporator"].Ts, info["evaporator"].Ts_stated
+    (1.0, False)
+    """
+    result = []
+    for name, spec in _SPECS.items():
+        stated = spec.Ts is not None
+        result.append(DaisyInfo(
+            name=name, p=len(spec.outputs), m=len(spec.inputs), N=spec.shape[0],
+            Ts=spec.Ts if stated else 1.0, Ts_unit=spec.Ts_unit if stated else "sample",
+            Ts_stated=stated, description=spec.description, url=daisy_url(name),
+            sha256=spec.sha256,
+        ))
+    return result
+
+
+def cache_dir() -> Path:
+    """Directory where downloaded DaISy files are kept.
+
+    ``$MOLI_CACHE_DIR/daisy``, else ``$XDG_CACHE_HOME/moli/daisy``, else
+    ``~/.cache/moli/daisy``. The directory is created only when a file is downloaded.
+    """
+    root = os.environ.get("MOLI_CACHE_DIR")
+    if not root:
+        xdg = os.environ.get("XDG_CACHE_HOME")
+        root = str(Path(xdg) / "moli") if xdg else str(Path.home() / ".cache" / "moli")
+    return Path(root).expanduser() / "daisy"
+
+
+def _search_dirs(data_dir: str | os.PathLike[str] | None) -> list[Path]:
+    dirs = [Path(data_dir).expanduser()] if data_dir is not None else []
+    env = os.environ.get("MOLI_DATA_DIR")
+    if env:
+        dirs.append(Path(env).expanduser())
+    dirs.append(cache_dir())
+    return dirs
+
+
+def _open_url(url: str, timeout: float) -> IO[bytes]:
+    """Open ``url`` for reading; a separate function so tests can replace it."""
+    return urllib.request.urlopen(url, timeout=timeout)  # noqa: S310 (fixed https address)
+
+
+def _download(name: str, spec: _Spec, searched: list[Path]) -> Path:
+    url = daisy_url(name)
+    where = ", ".join(str(d) for d in searched)
+    try:
+        with _open_url(url, DOWNLOAD_TIMEOUT) as response:
+            payload = gzip.decompress(response.read())
+    except (OSError, EOFError, zlib.error) as exc:  # URLError and timeouts are OSError
+        raise DatasetUnavailableError(
+            f"DaISy file {name}.dat is not in any of [{where}] and downloading {url} failed "
+            f"({exc}). Download it by hand, gunzip it, and put {name}.dat in a directory "
+            "passed as data_dir or named by the MOLI_DATA_DIR environment variable."
+        ) from exc
+    if spec.sha256 is not None:
+        digest = hashlib.sha256(payload).hexdigest()
+        if digest != spec.sha256:
+            raise DatasetChecksumError(
+                f"{url} unpacks to a file with SHA-256 {digest}, expected {spec.sha256}; "
+                "it was not kept. The server copy may have changed: check it, then put a "
+                f"trusted {name}.dat in data_dir or MOLI_DATA_DIR."
+            )
+    # Sets without a published checksum are at least checked for shape, before caching.
+    _parse(io.BytesIO(payload), url, spec)
+    target = cache_dir()
+    target.mkdir(parents=True, exist_ok=True)
+    # Write to a temporary name first so an interrupted download never leaves a
+    # truncated NAME.dat that later calls would trust.
+    fd, tmp = tempfile.mkstemp(dir=target, prefix=f".{name}.", suffix=".part")
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(payload)
+        final = target / f"{name}.dat"
+        os.replace(tmp, final)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return final
+
+
+def daisy_path(name: str, data_dir: str | os.PathLike[str] | None = None) -> Path:
+    """Local path of ``NAME.dat``, downloading it into the cache when needed.
+
+    Parameters
+    ----------
+    name : str
+        Data set name, as listed by :func:`list_daisy`.
+    data_dir : path, optional
+        Directory searched first.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    DatasetUnavailableError
+        The file is nowhere locally and the download failed.
+    DatasetChecksumError
+        The downloaded file has the wrong SHA-256 sum.
+    """
+    spec = _spec(name)
+    searched = _search_dirs(data_dir)
+    for directory in searched:
+        candidate = directory / f"{name}.dat"
+        if candidate.is_file():
+            return candidate
+    return _download(name, spec, searched)
+
+
+def _parse(source: Path | IO[bytes], label: object, spec: _Spec) -> np.ndarray:
+    try:
+        table = np.loadtxt(source, ndmin=2)
+    except ValueError as exc:
+        raise DataError(f"{label} is not a whitespace-separated table of numbers: {exc}") from None
+    if table.shape != spec.shape:
+        raise DataError(
+            f"{label} has shape {table.shape}, expected {spec.shape} for this DaISy set; "
+            "the file is truncated or is not the DaISy file of that name"
+        )
+    return table
+
+
+def _check_choice(value: int | None, name: str, option: str, choices: tuple[int, ...]) -> None:
+    if value not in choices:
+        raise OptionError(f"{name} needs {option} in {choices}, got {value!r}")
+
+
+def load_daisy(
+    name: str,
+    data_dir: str | os.PathLike[str] | None = None,
+    *,
+    noise: int | None = None,
+    step: int | None = None,
+) -> IOData:
+    """Load one DaISy data set as input-output data.
+
+    Parameters
+    ----------
+    name : str
+        Data set name, e.g. ``"evaporator"``; :func:`list_daisy` lists them all.
+    data_dir : path, optional
+        Directory searched for ``NAME.dat`` before ``$MOLI_DATA_DIR`` and the cache.
+    noise : {0, 10, 20, 30}, optional
+        ``destill`` only (default 0): percentage of white noise added to inputs and
+        outputs. The file holds the same simulated experiment at the four levels.
+    step : {1, 2, 3}, optional
+        ``distill2`` only, required: which input received the unit step. That file
+        holds three step responses, not an input-output record.
+
+    Returns
+    -------
+    IOData
+        Signals exactly as in the file (no scaling, no detrending), with the
+        time or counter column dropped. ``Ts`` is in the unit given by
+        :func:`list_daisy` (``cstr`` and ``destill`` in minutes, others in
+        seconds), or 1.0 when DaISy states no period.
+
+    Raises
+    ------
+    OptionError
+        Unknown name, or ``noise``/``step`` missing, invalid or given for a set that
+        has no such choice.
+    DataError
+        The file found has another shape than the DaISy file.
+    DatasetUnavailableError, DatasetChecksumError
+        See :func:`daisy_path`.
+
+    Notes
+    -----
+    * ``distill2``: the inputs are not in the file. ``u`` is the unit step (1.0 from
+      sample 0 on) on input ``step`` and 0 on the others; ``y`` holds absolute output
+      levels, which do not start at zero; subtract ``y[0]`` for the deviation response.
+    * ``powerplant``: the three unexplained "Yr" columns are not returned.
+    * ``evaporator`` and ``winding`` have no time column: every column is a signal.
+
+    Examples
+    --------
+    >>> d = load_daisy("evaporator")  # doctest: +SKIP
+    >>> d  # doctest: +SKIP
+    IOData(N=6305, p=3, m=3, Ts=1, outputs=['dry matter content', 'product flow', ...
+    """
+    spec = _spec(name)
+    if noise is not None and name != "destill":
+        raise OptionError(f"noise applies only to 'destill', not to {name!r}")
+    if step is not None and name != "distill2":
+        raise OptionError(f"step applies only to 'distill2', not to {name!r}")
+    if name == "destill":
+        noise = 0 if noise is None else noise
+        _check_choice(noise, name, "noise", DESTILL_NOISE_LEVELS)
+    if name == "distill2":
+        _check_choice(step, name, "step", DISTILL2_STEPS)
+    path = daisy_path(name, data_dir)
+    table = _parse(path, path, spec)
+    Ts = spec.Ts if spec.Ts is not None else 1.0
+    if name == "destill":
+        level = DESTILL_NOISE_LEVELS.index(noise)
+        u = table[:, [c + 5 * level for c in spec.u_cols]]
+        y = table[:, [c + 3 * level for c in spec.y_cols]]
+    elif name == "distill2":
+        first = 1 + 2 * (step - 1)
+        y = table[:, first:first + 2]
+        u = np.zeros((table.shape[0], 3))
+        u[:, step - 1] = 1.0
+    else:
+        u = table[:, list(spec.u_cols)]
+        y = table[:, list(spec.y_cols)]
+    return IOData(y, u, Ts=Ts, output_names=spec.outputs, input_names=spec.inputs)
