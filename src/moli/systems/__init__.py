@@ -1,5 +1,9 @@
 """Simulated plants to run identification and control experiments on."""
 
-from .twin_rotor import RigLimitWarning, TwinRotor, TwinRotorError, TwinRotorParameters
+from .twin_rotor import (
+    RigLimitWarning, TwinRotor, TwinRotorError, TwinRotorParameters, identification_experiment,
+)
 
-__all__ = ["RigLimitWarning", "TwinRotor", "TwinRotorError", "TwinRotorParameters"]
+__all__ = [
+    "RigLimitWarning", "TwinRotor", "TwinRotorError", "TwinRotorParameters", "identification_experiment",
+]

@@ -1,0 +1,605 @@
+"""Controllers designed on identified models: LQ servo with observer, PID baseline.
+
+The LQ servo follows the CDC 2015 twin rotor experiment: state feedback with
+integral action, weights from Bryson's rule, a Luenberger observer by pole
+placement. Gains come from python-control (``dlqr``, ``place``). Controllers
+run in absolute units: they subtract the model's operating point from the
+measurements and add it back to the inputs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol, Sequence
+
+import warnings
+
+import numpy as np
+
+from .errors import MoliError
+from .experiment import SampledPlant
+from .model import StateSpaceModel
+
+
+class ControlDesignError(MoliError):
+    """A controller cannot be designed with the given model or settings."""
+
+
+def _control():
+    try:
+        import control
+    except ImportError as exc:  # pragma: no cover - depends on the environment
+        raise ImportError("moli.control needs python-control: pip install control") from exc
+    return control
+
+
+def _positive_vector(name: str, values: object, size: int) -> np.ndarray:
+    array = np.array(values, dtype=float).reshape(-1)
+    if array.size == 1:
+        array = np.full(size, array[0])
+    if array.shape != (size,) or not np.all(np.isfinite(array)) or np.any(array <= 0):
+        raise ControlDesignError(f"{name} must be {size} positive numbers, got {values!r}")
+    return array
+
+
+def bryson(max_values: object) -> np.ndarray:
+    """Bryson's rule: the diagonal weight ``1 / max_i^2`` for each variable.
+
+    Parameters
+    ----------
+    max_values : array_like, shape (k,)
+        Largest acceptable deviation of each variable.
+
+    Returns
+    -------
+    ndarray, shape (k, k)
+
+    Examples
+    --------
+    >>> bryson([0.5, 2.0])
+    array([[4.  , 0.  ],
+           [0.  , 0.25]])
+    """
+    array = np.array(max_values, dtype=float).reshape(-1)
+    return np.diag(1.0 / _positive_vector("max_values", array, array.size) ** 2)
+
+
+def continuous_poles(z: object, Ts: float) -> np.ndarray:
+    """Map discrete-time poles to continuous time, ``s = log(z) / Ts``.
+
+    Examples
+    --------
+    >>> continuous_poles([np.exp(-0.1)], 0.1)
+    array([-1.+0.j])
+    """
+    return np.log(np.asarray(z, dtype=complex)) / Ts
+
+
+def sector_poles(n: int, radius: float, half_angle: float = np.pi / 4) -> np.ndarray:
+    """``n`` distinct continuous-time poles of modulus ``radius`` (rad/s) in a sector.
+
+    The angles from the negative real axis are evenly spread over
+    ``[-half_angle, half_angle]``, so every pole has damping ratio at least
+    ``cos(half_angle)`` (0.71 by default), like the paper's observer poles
+    (-8.62 +- 9.4j, -11.45 +- 7.19j, -16.2: damping 0.68 to 1).
+
+    Examples
+    --------
+    >>> sector_poles(3, 2.0).round(3)
+    array([-1.414+1.414j, -1.414-1.414j, -2.   +0.j   ])
+    """
+    if int(n) != n or n < 1 or not (np.isfinite(radius) and radius > 0) or not 0 < half_angle < np.pi / 2:
+        raise ControlDesignError(f"need n >= 1, radius > 0, 0 < half_angle < pi/2; got {n}, {radius}, {half_angle}")
+    n = int(n)
+    angles = np.linspace(-half_angle, half_angle, n) if n > 1 else np.zeros(1)
+    # Build the upper half and mirror it, so conjugates are exact (pole placement
+    # rejects pairs that differ by round-off).
+    upper = -radius * np.exp(-1j * angles[: n // 2])
+    real = [-float(radius)] if n % 2 else []
+    return np.concatenate([upper, upper.conj(), np.array(real, dtype=complex)])
+
+
+@dataclass
+class ServoController:
+    """Discrete LQ servo with integral action and a current Luenberger observer.
+
+    At each sample, with ``y`` and ``r`` the measured outputs and set-points
+    (deviations from the model's operating point):
+
+    - observer update ``xh = xb + M (y - C xb)``;
+    - control ``u = -K xh - Ki xi``, saturated to ``u_limits``;
+    - integrator ``xi <- xi + Ts (y - r)``, frozen while the input saturates
+      (anti-windup);
+    - prediction ``xb <- A xh + B u``.
+
+    Build it with :func:`lq_servo`.
+
+    Attributes
+    ----------
+    model : StateSpaceModel
+    K : ndarray, shape (m, n)
+    Ki : ndarray, shape (m, p)
+    M : ndarray, shape (n, p)
+        Observer gain; the estimation error evolves by ``(I - M C) A``.
+    Q, R : ndarray
+        LQ weights of the augmented state ``(x, xi)`` and of the inputs.
+    u_limits : ndarray, shape (m, 2)
+        Absolute input bounds.
+    """
+
+    model: StateSpaceModel
+    K: np.ndarray
+    Ki: np.ndarray
+    M: np.ndarray
+    Q: np.ndarray
+    R: np.ndarray
+    u_limits: np.ndarray
+    _xb: np.ndarray = field(init=False, repr=False)
+    _xi: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        self.reset()
+
+    def reset(self) -> None:
+        """Zero the observer and integrator states."""
+        self._xb = np.zeros(self.model.n)
+        self._xi = np.zeros(self.model.p)
+
+    def update(self, y: np.ndarray, r: np.ndarray) -> np.ndarray:
+        """Absolute input for measured outputs ``y`` and set-points ``r`` (absolute)."""
+        mdl = self.model
+        dy = np.asarray(y, float) - mdl.y_offset
+        dr = np.asarray(r, float) - mdl.y_offset
+        xh = self._xb + self.M @ (dy - mdl.C @ self._xb)
+        u_free = mdl.u_offset - self.K @ xh - self.Ki @ self._xi
+        u = np.clip(u_free, self.u_limits[:, 0], self.u_limits[:, 1])
+        if np.allclose(u, u_free):
+            self._xi = self._xi + mdl.Ts * (dy - dr)
+        self._xb = mdl.A @ xh + mdl.B @ (u - mdl.u_offset)
+        return u
+
+    def augmented(self) -> tuple[np.ndarray, np.ndarray]:
+        """Matrices ``(Aa, Ba)`` of the model with the output integrators appended."""
+        return _augment(self.model)
+
+    def closed_loop_poles(self) -> np.ndarray:
+        """Discrete poles of the state-feedback loop ``Aa - Ba [K, Ki]``."""
+        Aa, Ba = self.augmented()
+        return np.linalg.eigvals(Aa - Ba @ np.hstack([self.K, self.Ki]))
+
+    def observer_poles(self) -> np.ndarray:
+        """Discrete poles of the estimation error, eigenvalues of ``A - M C A``."""
+        A, C = self.model.A, self.model.C
+        return np.linalg.eigvals(A - self.M @ C @ A)
+
+    def pole_table(self) -> dict[str, np.ndarray]:
+        """Continuous-time poles (rad/s) of model, closed loop and observer (paper's Table I).
+
+        By the separation principle the loop closed through the observer has
+        the union of the closed-loop and observer poles.
+        """
+        Ts = self.model.Ts
+        table = {
+            "model": self.model.poles(),
+            "closed loop": self.closed_loop_poles(),
+            "observer": self.observer_poles(),
+        }
+        return {name: _sorted(continuous_poles(z, Ts)) for name, z in table.items()}
+
+
+def _sorted(poles: np.ndarray) -> np.ndarray:
+    return poles[np.lexsort((poles.imag, -poles.real))]
+
+
+def _augment(model: StateSpaceModel) -> tuple[np.ndarray, np.ndarray]:
+    n, p, m = model.n, model.p, model.m
+    Aa = np.block([[model.A, np.zeros((n, p))], [model.Ts * model.C, np.eye(p)]])
+    Ba = np.vstack([model.B, np.zeros((p, m))])
+    return Aa, Ba
+
+
+def servo_weights(
+    model: StateSpaceModel, y_max: object, integral_max: object, u_max: object
+) -> tuple[np.ndarray, np.ndarray]:
+    """Bryson weights for :func:`lq_servo`.
+
+    The state enters through the outputs it produces (``C' Qy C``), so the weights
+    mean the same whatever basis the identified state has.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    y_max : array_like, shape (p,)
+        Acceptable output deviations.
+    integral_max : array_like, shape (p,)
+        Acceptable integrated errors (output units times seconds).
+    u_max : array_like, shape (m,)
+        Acceptable input deviations.
+
+    Returns
+    -------
+    Q : ndarray, shape (n + p, n + p)
+    R : ndarray, shape (m, m)
+    """
+    Qy = bryson(_positive_vector("y_max", y_max, model.p))
+    Qi = bryson(_positive_vector("integral_max", integral_max, model.p))
+    R = bryson(_positive_vector("u_max", u_max, model.m))
+    Q = np.zeros((model.n + model.p, model.n + model.p))
+    Q[: model.n, : model.n] = model.C.T @ Qy @ model.C
+    Q[model.n :, model.n :] = Qi
+    return Q, R
+
+
+def lq_servo(
+    model: StateSpaceModel,
+    Q: np.ndarray,
+    R: np.ndarray,
+    observer_poles: Sequence[complex] | None = None,
+    observer_bandwidth: float = 12.0,
+    u_limits: object = (-2.5, 2.5),
+) -> ServoController:
+    """Design an LQ servo (integral action) and a Luenberger observer for ``model``.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        Discrete-time model (deviation variables); must have no feedthrough.
+    Q : ndarray, shape (n + p, n + p)
+        Weight of the state and the output integrators (see :func:`servo_weights`).
+    R : ndarray, shape (m, m)
+        Input weight.
+    observer_poles : sequence of complex, optional
+        Continuous-time observer poles (rad/s), ``n`` of them, closed under
+        conjugation, as in the paper's Table I; mapped by ``z = exp(s Ts)``.
+    observer_bandwidth : float, default 12.0
+        If ``observer_poles`` is not given: :func:`sector_poles` of this radius (rad/s).
+        The default is the magnitude of the paper's observer poles (12.7-16.2 rad/s),
+        several times faster than the closed loop and below the Nyquist frequency
+        of Ts = 0.1 s (31 rad/s).
+    u_limits : array_like, shape (2,) or (m, 2)
+        Absolute input bounds, applied in :meth:`ServoController.update`.
+
+    Returns
+    -------
+    ServoController
+
+    Examples
+    --------
+    >>> model = StateSpaceModel([[0.9]], [[0.1]], [[1.0]], Ts=0.1)
+    >>> Q, R = servo_weights(model, y_max=[0.1], integral_max=[0.1], u_max=[1.0])
+    >>> ctrl = lq_servo(model, Q, R, observer_poles=[-5.0])
+    >>> bool(np.all(np.abs(ctrl.closed_loop_poles()) < 1))
+    True
+    >>> continuous_poles(ctrl.observer_poles(), 0.1).real.round(6)
+    array([-5.])
+    """
+    control = _control()
+    n, p, m = model.n, model.p, model.m
+    if np.any(model.D != 0):
+        raise ControlDesignError("lq_servo needs a model without feedthrough (D = 0)")
+    Q = np.asarray(Q, dtype=float)
+    R = np.asarray(R, dtype=float)
+    if Q.shape != (n + p, n + p) or R.shape != (m, m):
+        raise ControlDesignError(
+            f"Q must be ({n + p}, {n + p}) and R ({m}, {m}); got {Q.shape} and {R.shape}"
+        )
+    if observer_poles is None:
+        s_poles = sector_poles(n, float(observer_bandwidth))
+    else:
+        s_poles = np.asarray(observer_poles, dtype=complex).reshape(-1)
+    if s_poles.shape != (n,) or np.any(s_poles.real >= 0):
+        raise ControlDesignError(f"need {n} observer poles in the open left half plane, got {s_poles}")
+    limits = np.array(u_limits, dtype=float)
+    limits = np.broadcast_to(limits, (m, 2)).copy() if limits.shape == (2,) else limits
+    if limits.shape != (m, 2) or np.any(limits[:, 0] >= limits[:, 1]):
+        raise ControlDesignError(f"u_limits must be (low, high) per input, got {u_limits!r}")
+    Aa, Ba = _augment(model)
+    try:
+        gain, _, _ = control.dlqr(Aa, Ba, Q, R)
+        # Current estimator: the error obeys e <- (I - M C) A e, whose eigenvalues
+        # are those of A' - (C A)' M', a pole-placement problem in the dual form.
+        # The robust (YT) algorithm warns when its conditioning refinement stops
+        # early; the placement itself is exact, and is checked below instead.
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", UserWarning)
+            M = control.place(model.A.T, (model.C @ model.A).T, np.exp(s_poles * model.Ts)).T
+    except (ValueError, np.linalg.LinAlgError, control.ControlArgument) as exc:
+        raise ControlDesignError(f"controller design failed: {exc}") from exc
+    placed = np.sort_complex(np.linalg.eigvals(model.A - M @ model.C @ model.A))
+    wanted = np.sort_complex(np.exp(s_poles * model.Ts))
+    if not np.allclose(placed, wanted, atol=1e-6):
+        raise ControlDesignError(f"observer poles could not be placed: got {placed}, wanted {wanted}")
+    return ServoController(
+        model=model, K=gain[:, :n], Ki=gain[:, n:], M=M, Q=Q, R=R, u_limits=limits
+    )
+
+
+class Controller(Protocol):
+    """What :func:`closed_loop` needs: ``reset()`` and ``update(y, r) -> u`` (absolute)."""
+
+    def reset(self) -> None: ...
+
+    def update(self, y: np.ndarray, r: np.ndarray) -> np.ndarray: ...
+
+
+@dataclass(frozen=True)
+class PIDGains:
+    """Gains of one discrete PID loop ``u = kp e + ki sum(e) Ts - kd dy/dt (filtered)``.
+
+    The derivative acts on the measurement (no kick at set-point steps) through
+    a first-order filter of time constant ``tf`` seconds.
+    """
+
+    kp: float
+    ki: float
+    kd: float
+    tf: float = 0.2
+
+
+@dataclass
+class DecentralizedPID:
+    """One PID loop per output, each driving one input; no coupling compensation.
+
+    Parameters
+    ----------
+    gains : sequence of PIDGains
+        One per loop.
+    pairing : sequence of (output, input) index pairs
+        Loop ``i`` reads output ``pairing[i][0]`` and drives input ``pairing[i][1]``.
+    Ts : float
+    u0 : array_like, shape (m,)
+        Input around which the loops act (the trim).
+    u_limits : array_like, shape (m, 2)
+        Absolute input bounds; the integrators freeze while their input saturates.
+    """
+
+    gains: Sequence[PIDGains]
+    pairing: Sequence[tuple[int, int]]
+    Ts: float
+    u0: np.ndarray
+    u_limits: np.ndarray
+    _integral: np.ndarray = field(init=False, repr=False)
+    _deriv: np.ndarray = field(init=False, repr=False)
+    _last_y: np.ndarray | None = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if len(self.gains) != len(self.pairing):
+            raise ControlDesignError("need one PIDGains per (output, input) pair")
+        self.u0 = np.asarray(self.u0, dtype=float)
+        self.u_limits = np.broadcast_to(np.asarray(self.u_limits, dtype=float), (self.u0.size, 2)).copy()
+        self.reset()
+
+    def reset(self) -> None:
+        """Zero the integrators and derivative filters."""
+        self._integral = np.zeros(len(self.gains))
+        self._deriv = np.zeros(len(self.gains))
+        self._last_y = None
+
+    def update(self, y: np.ndarray, r: np.ndarray) -> np.ndarray:
+        """Absolute input for measured outputs ``y`` and set-points ``r``."""
+        y = np.asarray(y, float)
+        r = np.asarray(r, float)
+        last = y if self._last_y is None else self._last_y
+        u = self.u0.copy()
+        for i, (g, (out, inp)) in enumerate(zip(self.gains, self.pairing)):
+            e = r[out] - y[out]
+            # Backward-Euler discretisation of kd s / (tf s + 1) acting on -y.
+            self._deriv[i] = (g.tf * self._deriv[i] - g.kd * (y[out] - last[out])) / (g.tf + self.Ts)
+            free = u[inp] + g.kp * e + self._integral[i] + self._deriv[i]
+            u[inp] = np.clip(free, *self.u_limits[inp])
+            if u[inp] == free:
+                self._integral[i] += g.ki * self.Ts * e
+        self._last_y = y
+        return u
+
+
+def _siso_cost(
+    params: np.ndarray, A: np.ndarray, b: np.ndarray, c: np.ndarray, gain: float, Ts: float, N: int
+) -> float:
+    """ITAE of a unit set-point step of one loop on a linear channel, plus a move penalty.
+
+    Input moves are weighted in output units (times the static ``gain``), so the
+    trade-off does not depend on the channel's units.
+    """
+    kp, ki, kd = params
+    g = PIDGains(kp, ki, kd)
+    x = np.zeros(A.shape[0])
+    integral = deriv = y_last = 0.0
+    cost = 0.0
+    u_last = 0.0
+    for k in range(N):
+        y = float(c @ x)
+        e = 1.0 - y
+        deriv = (g.tf * deriv - g.kd * (y - y_last)) / (g.tf + Ts)
+        integral += g.ki * Ts * e
+        u = g.kp * e + integral + deriv
+        # The move penalty keeps the derivative action from amplifying the
+        # encoder's quantisation steps into a chattering input.
+        cost += k * Ts * abs(e) * Ts + 0.01 * (gain * (u - u_last)) ** 2
+        if not np.isfinite(cost) or abs(y) > 1e3:
+            return 1e9
+        x = A @ x + b * u
+        y_last, u_last = y, u
+    return cost
+
+
+def tune_pid(model: StateSpaceModel, output: int, input: int, horizon: float = 30.0) -> PIDGains:
+    """Tune one decentralised loop on the diagonal channel ``input -> output`` of ``model``.
+
+    Minimises the integral of time times absolute error of a unit set-point step
+    (plus a small penalty on input moves) over ``horizon`` seconds with
+    ``scipy.optimize.minimize`` (Nelder-Mead, gains bounded to [0, 20]),
+    ignoring the other channels, as a decentralised design does.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        Discrete-time model in deviation variables.
+    output, input : int
+        Channel indices.
+    horizon : float, default 30.0
+        Length of the simulated step, seconds.
+
+    Returns
+    -------
+    PIDGains
+    """
+    from scipy.optimize import minimize
+
+    if not (0 <= output < model.p and 0 <= input < model.m):
+        raise ControlDesignError(f"no channel {input} -> {output} in a {model.p}x{model.m} model")
+    b, c = model.B[:, input], model.C[output]
+    gain = float(c @ np.linalg.solve(np.eye(model.n) - model.A, b))
+    if not np.isfinite(gain) or gain == 0:
+        raise ControlDesignError(f"channel {input} -> {output} has no usable static gain")
+    # Start from a gentle integral controller of the right sign.
+    start = np.array([0.5, 0.2, 0.2]) / gain
+    sign = np.sign(gain)
+    N = int(round(horizon / model.Ts))
+    res = minimize(
+        lambda v: _siso_cost(sign * v, model.A, b, c, gain, model.Ts, N), sign * start,
+        method="Nelder-Mead", bounds=[(0.0, 20.0)] * 3, options={"xatol": 1e-3, "fatol": 1e-4},
+    )
+    kp, ki, kd = sign * res.x
+    return PIDGains(float(kp), float(ki), float(kd))
+
+
+def pid_baseline(model: StateSpaceModel, u_limits: object = (-2.5, 2.5)) -> DecentralizedPID:
+    """Two decentralised PID loops (output i from input i), each tuned by :func:`tune_pid`.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        Square model; its ``u_offset`` is the input the loops act around.
+    u_limits : array_like, shape (2,) or (m, 2)
+
+    Returns
+    -------
+    DecentralizedPID
+    """
+    if model.p != model.m:
+        raise ControlDesignError(f"a diagonal pairing needs a square model, got {model.p}x{model.m}")
+    gains = [tune_pid(model, i, i) for i in range(model.p)]
+    return DecentralizedPID(
+        gains=gains, pairing=[(i, i) for i in range(model.p)], Ts=model.Ts,
+        u0=model.u_offset, u_limits=np.asarray(u_limits, dtype=float),
+    )
+
+
+@dataclass(frozen=True)
+class ClosedLoopRun:
+    """Record of a closed-loop simulation: time (N,), outputs and set-points (N, p), inputs (N, m)."""
+
+    t: np.ndarray
+    y: np.ndarray
+    u: np.ndarray
+    r: np.ndarray
+
+
+def closed_loop(
+    plant: SampledPlant, controller: Controller, setpoints: object, seed: int | None = None
+) -> ClosedLoopRun:
+    """Run ``controller`` on ``plant`` tracking ``setpoints`` (absolute, shape (N, p)).
+
+    At each sample the plant is measured, the controller computes the input from
+    that measurement and the set-point, and the plant is advanced one period.
+
+    Parameters
+    ----------
+    plant : SampledPlant
+        E.g. :class:`moli.systems.TwinRotor`; started from its own initial state.
+    controller : Controller
+        :class:`ServoController` or :class:`DecentralizedPID`.
+    setpoints : array_like, shape (N, p)
+    seed : int, optional
+        Measurement-noise seed passed to ``plant.reset``.
+
+    Returns
+    -------
+    ClosedLoopRun
+    """
+    r = np.array(setpoints, dtype=float, ndmin=2)
+    p = len(plant.output_names)
+    if r.ndim != 2 or r.shape[1] != p or not np.all(np.isfinite(r)):
+        raise ControlDesignError(f"setpoints must be finite with shape (N, {p}), got {np.shape(setpoints)}")
+    plant.reset(seed=seed)
+    controller.reset()
+    y = np.empty_like(r)
+    u = np.empty((r.shape[0], len(plant.input_names)))
+    for k in range(r.shape[0]):
+        y[k] = plant.measure()
+        u[k] = controller.update(y[k], r[k])
+        plant.step(u[k])
+    return ClosedLoopRun(t=np.arange(r.shape[0]) * plant.Ts, y=y, u=u, r=r)
+
+
+@dataclass(frozen=True)
+class StepMetrics:
+    """Response to one set-point step of one channel.
+
+    Attributes
+    ----------
+    settling_time : float
+        Seconds from the step until the output stays within ``band`` of the step size
+        around the new set-point (inf if it never does).
+    overshoot : float
+        Largest excursion beyond the new set-point, percent of the step size.
+    steady_state_error : float
+        Mean output minus set-point over the last ``tail`` seconds of the window.
+    coupling : float
+        Largest deviation of each other output from its value at the step, percent of
+        the step size (the largest over the other outputs).
+    """
+
+    settling_time: float
+    overshoot: float
+    steady_state_error: float
+    coupling: float
+
+
+def step_metrics(
+    run: ClosedLoopRun, channel: int, start: int, stop: int, band: float = 0.05, tail: float = 2.0
+) -> StepMetrics:
+    """Score the set-point step of ``channel`` at sample ``start`` over samples ``start:stop``.
+
+    Parameters
+    ----------
+    run : ClosedLoopRun
+    channel : int
+        Output whose set-point steps at ``start``.
+    start, stop : int
+        Window of samples; the other set-points must be constant in it.
+    band : float, default 0.05
+        Settling band, fraction of the step size.
+    tail : float, default 2.0
+        Seconds at the end of the window averaged for the steady-state error.
+
+    Returns
+    -------
+    StepMetrics
+    """
+    r, y = run.r, run.y
+    if not 0 < start < stop <= len(r):
+        raise ControlDesignError(f"need 0 < start < stop <= {len(r)}, got {start}, {stop}")
+    size = r[start, channel] - r[start - 1, channel]
+    if size == 0:
+        raise ControlDesignError(f"set-point of output {channel} does not step at sample {start}")
+    Ts = run.t[1] - run.t[0]
+    target = r[start, channel]
+    err = (y[start:stop, channel] - target) / size  # normalised: 0 at the target, -1 before
+    outside = np.flatnonzero(np.abs(err) > band)
+    if outside.size and outside[-1] == stop - start - 1:
+        settling = np.inf
+    else:
+        settling = 0.0 if outside.size == 0 else (outside[-1] + 1) * Ts
+    last = max(1, int(round(tail / Ts)))
+    others = [j for j in range(r.shape[1]) if j != channel]
+    coupling = max(
+        (np.max(np.abs(y[start:stop, j] - y[start - 1, j])) / abs(size) for j in others), default=0.0
+    )
+    return StepMetrics(
+        settling_time=float(settling),
+        overshoot=float(max(0.0, np.max(err)) * 100),
+        steady_state_error=float(np.mean(y[stop - last : stop, channel] - r[stop - last : stop, channel])),
+        coupling=float(coupling * 100),
+    )
