@@ -243,6 +243,16 @@ def test_corrupt_gzip_is_reported_as_unavailable(
         datasets.load_daisy("tiny")
 
 
+def test_unwritable_cache_is_reported(
+    tiny: list[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    blocker = tmp_path / "not_a_folder"
+    blocker.write_text("")  # a file where the cache folder should be
+    monkeypatch.setenv("MOLI_CACHE_DIR", str(blocker))
+    with pytest.raises(datasets.DatasetUnavailableError, match="MOLI_CACHE_DIR"):
+        datasets.load_daisy("tiny")
+
+
 def test_cache_dir_follows_environment(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> None:
     monkeypatch.setenv("MOLI_CACHE_DIR", str(tmp_path))
     assert datasets.cache_dir() == tmp_path / "daisy"

@@ -297,10 +297,16 @@ def _download(name: str, spec: _Spec, searched: list[Path]) -> Path:
     # Sets without a published checksum are at least checked for shape, before caching.
     _parse(io.BytesIO(payload), url, spec)
     target = cache_dir()
-    target.mkdir(parents=True, exist_ok=True)
-    # Write to a temporary name first so an interrupted download never leaves a
-    # truncated NAME.dat that later calls would trust.
-    fd, tmp = tempfile.mkstemp(dir=target, prefix=f".{name}.", suffix=".part")
+    try:
+        target.mkdir(parents=True, exist_ok=True)
+        # Write to a temporary name first so an interrupted download never leaves a
+        # truncated NAME.dat that later calls would trust.
+        fd, tmp = tempfile.mkstemp(dir=target, prefix=f".{name}.", suffix=".part")
+    except OSError as exc:
+        raise DatasetUnavailableError(
+            f"downloaded {url} but cannot write to the cache {target} ({exc}); "
+            "set MOLI_CACHE_DIR to a writable folder"
+        ) from exc
     try:
         with os.fdopen(fd, "wb") as handle:
             handle.write(payload)
@@ -432,6 +438,7 @@ def load_daisy(
         u = table[:, [c + 5 * level for c in spec.u_cols]]
         y = table[:, [c + 3 * level for c in spec.y_cols]]
     elif name == "distill2":
+        assert step is not None  # checked above; narrows the type
         first = 1 + 2 * (step - 1)
         y = table[:, first:first + 2]
         u = np.zeros((table.shape[0], 3))
