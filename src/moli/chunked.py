@@ -17,7 +17,7 @@ from typing import Sequence
 
 import numpy as np
 
-from .errors import DataError, IllConditionedWarning
+from .errors import DataError, IllConditionedWarning, OptionError
 from .estimation import COND_LIMIT, check_sample_count, realize, solve_batch
 from .filters import check_alpha, divisors
 from .model import StateSpaceModel
@@ -57,9 +57,9 @@ class ChunkedEstimator:
         self.indices = check_indices(indices, len(indices))
         self.alpha = check_alpha(alpha)
         if int(m) != m or m < 1:
-            raise DataError(f"m (number of inputs) must be a positive integer, got {m!r}")
+            raise OptionError(f"m (number of inputs) must be a positive integer, got {m!r}")
         if not (np.isfinite(Ts) and Ts > 0):
-            raise DataError(f"Ts must be positive and finite, got {Ts!r}")
+            raise OptionError(f"Ts must be positive and finite, got {Ts!r}")
         self.m = int(m)
         self.Ts = float(Ts)
         self._alphas = divisors(self.alpha, self.indices)

@@ -54,8 +54,8 @@ class FilterBank:
     etas : ndarray, shape (R + 1, 2)
         Current candidates; row 0 is the barycenter candidate.
     costs : ndarray, shape (R + 1,)
-        ``J`` of the model now in each slot at the last scoring; NaN before the
-        first scoring, and for slot 0 from its move until the next scoring.
+        ``J`` of each slot's model at the last scoring (NaN before the first);
+        slot 0 has since moved to the barycenter of these scores.
 
     Examples
     --------
@@ -154,11 +154,13 @@ class FilterBank:
         center = barycenter(self.etas, self.costs)
         self.etas[0] = center
         self._bank.restart(0, self._divisors(center), self._recent)
-        self.costs[0] = np.nan
 
     @property
     def best(self) -> int:
-        """Slot of the scored candidate with the lowest ``J`` (0 before any scoring)."""
+        """Slot with the lowest ``J`` at the last scoring (0 before any scoring).
+
+        When it is slot 0, the model is the one re-estimated at the barycenter.
+        """
         return 0 if np.all(np.isnan(self.costs)) else int(np.nanargmin(self.costs))
 
     @property
