@@ -86,7 +86,7 @@ def sector_poles(n: int, radius: float, half_angle: float = np.pi / 4) -> np.nda
     Examples
     --------
     >>> sector_poles(3, 2.0).round(3)
-    array([-1.414+1.414j, -1.414-1.414j, -2.   +0.j   ])
+    array([-1.414-1.414j, -1.414+1.414j, -2.   +0.j   ])
     """
     if int(n) != n or n < 1 or not (np.isfinite(radius) and radius > 0) or not 0 < half_angle < np.pi / 2:
         raise ControlDesignError(f"need n >= 1, radius > 0, 0 < half_angle < pi/2; got {n}, {radius}, {half_angle}")
@@ -484,6 +484,25 @@ def pid_baseline(model: StateSpaceModel, u_limits: object = (-2.5, 2.5)) -> Dece
         gains=gains, pairing=[(i, i) for i in range(model.p)], Ts=model.Ts,
         u0=model.u_offset, u_limits=np.asarray(u_limits, dtype=float),
     )
+
+
+def setpoint_steps(N: int, initial: object, steps: Sequence[tuple[int, int, float]]) -> np.ndarray:
+    """Piecewise-constant set-points: ``initial``, then ``(sample, output, value)`` steps.
+
+    Examples
+    --------
+    >>> setpoint_steps(4, [0.0, 1.0], [(2, 0, 0.5)])
+    array([[0. , 1. ],
+           [0. , 1. ],
+           [0.5, 1. ],
+           [0.5, 1. ]])
+    """
+    r = np.tile(np.asarray(initial, dtype=float), (int(N), 1))
+    for k, channel, value in steps:
+        if not (0 <= k < N and 0 <= channel < r.shape[1]):
+            raise ControlDesignError(f"step ({k}, {channel}) is outside {N} samples x {r.shape[1]} outputs")
+        r[k:, channel] = value
+    return r
 
 
 @dataclass(frozen=True)
