@@ -26,7 +26,7 @@ import numpy as np
 
 # Rows absorbed per QR: large enough to amortise the per-call overhead, small
 # enough that the stacked (K + BLOCK) x K arrays stay in cache.
-BLOCK = 256
+BLOCK = 512
 
 
 class SquareRootRls:
