@@ -225,7 +225,9 @@ def servo_weights(
     Qi = bryson(_positive_vector("integral_max", integral_max, model.p))
     R = bryson(_positive_vector("u_max", u_max, model.m))
     Q = np.zeros((model.n + model.p, model.n + model.p))
-    Q[: model.n, : model.n] = model.C.T @ Qy @ model.C
+    Qx = model.C.T @ Qy @ model.C
+    # Symmetric in exact arithmetic; python-control rejects round-off asymmetry.
+    Q[: model.n, : model.n] = 0.5 * (Qx + Qx.T)
     Q[model.n :, model.n :] = Qi
     return Q, R
 
