@@ -6,7 +6,7 @@ from hypothesis import given, settings, strategies as st
 
 import moli
 from moli.errors import DataError, FilterError, OptionError, StructureError
-from moli.estimation import filtered_regressors, realize
+from moli.estimation import filtered_regressors
 from moli.filters import divisors
 from moli.recursive import RecursiveMoli
 from moli.simulation import simulate_batch

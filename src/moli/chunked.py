@@ -103,9 +103,8 @@ class ChunkedEstimator:
             If the model has poles on or outside the unit circle.
         """
         check_sample_count(self.samples, self.indices, self.m)
-        p = len(self.indices)
         thetas, worst = [], 1.0
-        for j, (count, factor) in enumerate(self._bank.factors()):
+        for count, factor in self._bank.factors():
             theta, cond = solve_batch(factor[:, :count, :count], factor[:, :count, count])
             thetas.append(theta)
             worst = max(worst, float(cond[0]))
