@@ -38,6 +38,3 @@ class UnstableModelWarning(UserWarning):
 class IllConditionedWarning(UserWarning):
     """A least-squares problem is rank deficient or badly conditioned."""
 
-
-class HoldoutWarning(UserWarning):
-    """No validation data were given, so the tail of the record was held out."""

@@ -1,0 +1,191 @@
+"""Structure selection: greedy path of lists of indices, exhaustive search, order rule."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from .data import IOData
+from .errors import DataError
+from .estimation import check_sample_count
+from .filters import filter_polynomial
+from .model import StateSpaceModel
+from .structure import Indices, compositions, raised
+from .tuning import FilterScorer, TuningResult, tune_filter
+from .validation import compare
+
+
+@dataclass
+class PathStep:
+    """One list of indices, its tuned filter, its model and its scores.
+
+    Attributes
+    ----------
+    indices : tuple of int
+    order : int
+        McMillan degree ``sum(indices)``.
+    J : float
+        Criterion on the estimation data (simulation, zero state) of the chosen filter.
+    J_barycenter : float
+        Criterion at the last barycenter of the filter search.
+    eta : ndarray, shape (2,)
+        Chosen filter parameters ``(wc, zeta)``.
+    vaf : ndarray, shape (p,)
+        Validation VAF per output, percent (simulation; initial state as requested).
+    model : StateSpaceModel
+    seconds : float
+        Wall time spent tuning, estimating and validating this list.
+    """
+
+    indices: Indices
+    order: int
+    J: float
+    J_barycenter: float
+    eta: np.ndarray
+    vaf: np.ndarray
+    model: StateSpaceModel = field(repr=False)
+    seconds: float
+
+    @property
+    def mean_vaf(self) -> float:
+        """Average validation VAF over the outputs, percent."""
+        return float(np.mean(self.vaf))
+
+    @property
+    def stable(self) -> bool:
+        """Whether the model is asymptotically stable."""
+        return self.model.is_stable()
+
+
+class StructureSearch:
+    """Fits lists of indices on one estimation/validation pair, caching each list.
+
+    Parameters
+    ----------
+    estimation, validation : IOData
+        Centred records (same operating point).
+    omega : ndarray, shape (R, 2)
+        Filter candidates ``(wc, zeta)``.
+    tuning : {"grid", "random"}
+    iterations : int
+        Steps of the randomized filter search.
+    s : float
+        Root spacing factor of the filters.
+    seed : int
+        Each list's random draws come from ``default_rng([seed, *indices])``, so a
+        list gets the same model whichever search reaches it.
+    x0 : {"zero", "estimate"}
+        Initial state of the validation simulation.
+    """
+
+    def __init__(
+        self, estimation: IOData, validation: IOData, omega: np.ndarray, tuning: str = "random",
+        iterations: int = 5, s: float = 2.0, seed: int = 0, x0: str = "zero",
+    ) -> None:
+        self.estimation = estimation
+        self.validation = validation
+        self.omega = omega
+        self.tuning = tuning
+        self.iterations = iterations
+        self.s = s
+        self.seed = seed
+        self.x0 = x0
+        self._z = np.concatenate([estimation.y, estimation.u], axis=1)
+        self._cache: dict[Indices, PathStep] = {}
+
+    def feasible(self, indices: Indices) -> bool:
+        """Whether the estimation record has enough samples for this list."""
+        try:
+            check_sample_count(self.estimation.N, indices, self.estimation.m)
+        except DataError:
+            return False
+        return True
+
+    def fit(self, indices: Indices) -> PathStep:
+        """Tune the filter, estimate and validate one list (cached)."""
+        if indices in self._cache:
+            return self._cache[indices]
+        start = time.perf_counter()
+        est = self.estimation
+        scorer = FilterScorer(self._z, indices, est.Ts, self.s)
+        tuned: TuningResult = tune_filter(
+            scorer, self.omega, self.tuning, self.iterations, np.random.default_rng([self.seed, *indices])
+        )
+        wc, zeta = tuned.eta
+        model = StateSpaceModel(
+            tuned.A, tuned.B, tuned.C, Ts=est.Ts, output_names=est.output_names,
+            input_names=est.input_names, indices=indices,
+            alpha=filter_polynomial(wc, zeta, indices, est.Ts, self.s),
+            y_offset=est.y_offset, u_offset=est.u_offset,
+            info={"wc": float(wc), "zeta": float(zeta), "s": self.s, "J": tuned.J,
+                  "J_barycenter": tuned.J_barycenter, "evaluations": tuned.evaluations},
+        )
+        scores = compare(model, self.validation, self.x0)
+        step = PathStep(
+            indices=indices, order=sum(indices), J=tuned.J, J_barycenter=tuned.J_barycenter,
+            eta=tuned.eta, vaf=scores.vaf, model=model, seconds=time.perf_counter() - start,
+        )
+        self._cache[indices] = step
+        return step
+
+
+def greedy_path(
+    search: StructureSearch, nmax: int, progress: Callable[[PathStep], None] | None = None
+) -> list[PathStep]:
+    """The paper's greedy path: from ``(1, ..., 1)`` raise the index that lowers J most.
+
+    Parameters
+    ----------
+    search : StructureSearch
+    nmax : int
+        Largest McMillan degree to reach.
+    progress : callable, optional
+        Called with each step as it is added.
+
+    Returns
+    -------
+    list of PathStep
+        One step per order ``p, p+1, ...``; shorter than ``nmax - p + 1`` when the
+        record has too few samples for every larger list.
+    """
+    current = (1,) * search.estimation.p
+    path = [search.fit(current)]
+    if progress:
+        progress(path[-1])
+    while path[-1].order < nmax:
+        candidates = [c for c in raised(path[-1].indices) if search.feasible(c)]
+        if not candidates:
+            break
+        steps = [search.fit(c) for c in candidates]
+        path.append(min(steps, key=lambda st: st.J))
+        if progress:
+            progress(path[-1])
+    return path
+
+
+def exhaustive(search: StructureSearch, order: int) -> list[PathStep]:
+    """Fit every list of indices of the given McMillan degree (``C(n-1, p-1)`` lists)."""
+    return [search.fit(c) for c in compositions(order, search.estimation.p) if search.feasible(c)]
+
+
+def select_order(path: list[PathStep], tolerance: float = 1.0) -> int:
+    """Position in ``path`` of the lowest order within ``tolerance`` points of the best.
+
+    Only stable models are eligible when the path has any.
+
+    Parameters
+    ----------
+    path : list of PathStep
+    tolerance : float, default 1.0
+        Percentage points of mean validation VAF.
+
+    Returns
+    -------
+    int
+    """
+    eligible = [i for i, st in enumerate(path) if st.stable] or list(range(len(path)))
+    best = max(path[i].mean_vaf for i in eligible)
+    return min(i for i in eligible if path[i].mean_vaf >= best - tolerance)
