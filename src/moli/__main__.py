@@ -1,0 +1,5 @@
+"""Run the moli command: ``python -m moli``."""
+
+from .cli import main
+
+main()
