@@ -26,9 +26,10 @@ from .structure import Indices
 
 # Imaginary parts below this (relative to the modulus) are treated as a real root:
 # np.roots returns a double real root as a pair split by about sqrt(eps) times the
-# spread of nearby roots (2e-6 seen on clustered filters); a genuine pair this close
-# to the axis has a period over 60 000 samples, indistinguishable from real roots.
-_REAL_TOL = 1e-4
+# spread of nearby roots (up to 4e-4 seen on slow filters with clustered roots); a
+# genuine pair this close to the axis has a period over 6000 samples, which no
+# record of a few thousand samples distinguishes from two real roots.
+_REAL_TOL = 1e-3
 
 
 def _dominant_roots(wc: float, zeta: float, Ts: float) -> np.ndarray:

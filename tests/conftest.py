@@ -1,0 +1,33 @@
+"""Shared fixtures: random test systems and the DaISy data directory."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+from threadpoolctl import threadpool_limits
+
+import moli
+import moli.datasets
+
+REPO = Path(__file__).resolve().parents[1]
+
+# Multi-threaded BLAS on small least-squares problems is slower and erratic on
+# shared 2-core machines; the library's own numbers are single-threaded.
+threadpool_limits(1)
+
+
+def daisy_dir() -> Path | None:
+    """The DaISy folder: $MOLI_DATA_DIR, else ../shared/data/daisy beside the repo."""
+    given = os.environ.get("MOLI_DATA_DIR")
+    path = Path(given) if given else REPO.parent / "shared" / "data" / "daisy"
+    return path if path.is_dir() else None
+
+
+@pytest.fixture
+def evaporator() -> moli.IOData:
+    folder = daisy_dir()
+    if folder is None or not (folder / "evaporator.dat").is_file():
+        pytest.skip("DaISy evaporator.dat not found: set MOLI_DATA_DIR to the DaISy folder")
+    return moli.datasets.load_daisy("evaporator", data_dir=folder)

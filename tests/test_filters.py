@@ -1,0 +1,79 @@
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+import moli
+from moli.filters import filter_roots
+
+indices_lists = st.lists(st.integers(1, 7), min_size=1, max_size=4)
+
+
+@settings(max_examples=150, deadline=None)
+@given(
+    indices=indices_lists,
+    wc=st.floats(0.01, 2.5),
+    zeta=st.floats(0.3, 3.0),
+    s=st.floats(1.2, 4.0),
+)
+def test_every_list_gets_valid_divisors(indices, wc, zeta, s):
+    alpha = moli.filter_polynomial(wc, zeta, indices, s=s)
+    assert alpha[0] == 1.0 and alpha.size == max(indices) + 1
+    assert np.max(np.abs(np.roots(alpha))) < 1.0
+    for l, alpha_j in zip(indices, moli.divisors(alpha, tuple(indices))):
+        assert alpha_j.size == l + 1 and alpha_j[0] == 1.0
+        # alpha_j divides alpha: the remainder is round-off relative to the coefficients
+        _, remainder = np.polydiv(alpha, alpha_j)
+        assert np.max(np.abs(remainder)) < 1e-6
+
+
+def test_dominant_pair_and_powers():
+    wc, zeta = 0.5, 0.6
+    roots = filter_roots(wc, zeta, [4])
+    z1 = np.exp(wc * (-zeta + 1j * np.sqrt(1 - zeta**2)))
+    np.testing.assert_allclose(sorted(roots, key=np.angle), sorted([z1, np.conj(z1), z1**2, np.conj(z1) ** 2], key=np.angle))
+
+
+def test_odd_index_below_even_nbar_gets_real_roots():
+    roots = filter_roots(0.5, 0.6, [1, 2])
+    assert np.allclose(roots.imag, 0.0)
+    # the replaced pair keeps its modulus
+    np.testing.assert_allclose(np.abs(roots), np.exp(-0.5 * 0.6))
+
+
+def test_single_index_is_real_root():
+    np.testing.assert_allclose(moli.filter_polynomial(0.5, 1.0, [1]), [1.0, -np.exp(-0.5)])
+
+
+def test_divisor_picks_slowest_roots():
+    alpha = np.poly([0.9, 0.5, 0.2])
+    np.testing.assert_allclose(moli.divisor(alpha, 2), np.poly([0.9, 0.5]))
+
+
+@pytest.mark.parametrize(
+    "alpha, message",
+    [
+        ([2.0, 0.5], "monic"),
+        ([1.0, -1.2], "stable"),
+        ([1.0, np.nan], "finite"),
+        ([1.0], "degree"),
+    ],
+)
+def test_bad_alpha(alpha, message):
+    with pytest.raises(moli.FilterError, match=message):
+        moli.divisor(alpha, 1)
+
+
+def test_odd_divisor_without_real_root():
+    pair = np.real(np.poly([0.5 + 0.3j, 0.5 - 0.3j]))
+    with pytest.raises(moli.FilterError, match="no real root"):
+        moli.divisor(pair, 1)
+    with pytest.raises(moli.FilterError, match="no real root"):
+        moli.divisors(pair, (1, 2))
+
+
+def test_bad_filter_parameters():
+    with pytest.raises(moli.FilterError):
+        moli.filter_polynomial(-1.0, 0.7, [2])
+    with pytest.raises(moli.FilterError):
+        moli.filter_polynomial(1.0, 0.7, [2], s=1.0)

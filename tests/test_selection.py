@@ -1,0 +1,103 @@
+import warnings
+from math import comb
+
+import numpy as np
+import pytest
+
+import moli
+from moli.selection import PathStep, StructureSearch, exhaustive, greedy_path, select_order
+from moli.tuning import default_omega
+
+
+@pytest.fixture(scope="module")
+def search():
+    est, val = moli.example_data(N=700, seed=3).split(450)
+    est = est.remove_means()
+    val = val.remove_means(est.y_offset, est.u_offset)
+    return StructureSearch(est, val, default_omega(1.0), tuning="grid")
+
+
+def test_greedy_path_raises_one_index_per_step(search):
+    path = greedy_path(search, 7)
+    assert path[0].indices == (1, 1, 1)
+    assert [st.order for st in path] == [3, 4, 5, 6, 7]
+    for before, after in zip(path, path[1:]):
+        diff = np.subtract(after.indices, before.indices)
+        assert sorted(diff) == [0, 0, 1]
+        # the kept list has the lowest J of the p candidates
+        rivals = [search.fit(c) for c in moli.structure.raised(before.indices)]
+        assert after.J == min(r.J for r in rivals)
+
+
+def test_exhaustive_fits_every_list(search):
+    steps = exhaustive(search, 5)
+    assert len(steps) == comb(4, 2)
+    assert {st.indices for st in steps} == set(moli.structure.compositions(5, 3))
+
+
+def _step(order, mean_vaf, stable=True):
+    A = [[0.5]] if stable else [[1.5]]
+    model = moli.StateSpaceModel(A, [[1.0]], [[1.0]])
+    return PathStep((order,), order, 0.1, 0.1, np.array([1.0, 1.0]), np.array([mean_vaf]), model, 0.0)
+
+
+def test_order_rule_lowest_within_one_point():
+    path = [_step(3, 70.0), _step(4, 80.5), _step(5, 81.2), _step(6, 81.0)]
+    assert select_order(path) == 1  # 80.5 is within 1 point of 81.2
+    assert select_order(path, tolerance=0.1) == 2
+    # an unstable model is never chosen while a stable one exists
+    path[2] = _step(5, 90.0, stable=False)
+    assert select_order(path) == 1
+
+
+def test_identify_recovers_example_plant():
+    est, val = moli.example_data(N=1000, noise=0.1, seed=0).split(600)
+    result = moli.identify(est, val, nmax=8, tuning="grid")
+    # 10 % output noise caps the VAF at ~99 %; 4 points of margin for estimation error
+    assert result.selected.mean_vaf > 95.0
+    assert result.model is result.selected.model
+    assert result.model.is_stable()
+    assert "selected" in result.summary()
+    np.testing.assert_allclose(result.model.u_offset, est.u.mean(axis=0))
+
+
+def test_identify_is_reproducible_and_seeded():
+    data = moli.example_data(N=500, seed=4)
+    first = moli.identify(data, nmax=5, seed=7)
+    again = moli.identify(data, nmax=5, seed=7)
+    np.testing.assert_array_equal(first.model.A, again.model.A)
+    assert [st.indices for st in first.path] == [st.indices for st in again.path]
+
+
+def test_identify_holds_out_tail_without_validation():
+    data = moli.example_data(N=500, seed=5)
+    result = moli.identify(data, nmax=4, tuning="grid")
+    assert "held out" in result.validation_source
+    assert (result.estimation.N, result.validation.N) == (350, 150)
+
+
+def test_identify_rejects_bad_options():
+    data = moli.example_data(N=300)
+    with pytest.raises(moli.OptionError, match="unknown option"):
+        moli.identify(data, n_max=4)
+    with pytest.raises(moli.OptionError, match="tuning"):
+        moli.identify(data, tuning="newton")
+    with pytest.raises(moli.OptionError, match="nmax"):
+        moli.identify(data, nmax=2)
+    with pytest.raises(moli.OptionError, match="omega"):
+        moli.identify(data, omega=[[0.1, -1.0]])
+    with pytest.raises(moli.DataError, match="too few samples"):
+        moli.identify(data[:8], validation=data[8:40])
+
+
+def test_unstable_plant_warns_and_does_not_crash():
+    rng = np.random.default_rng(8)
+    u = rng.standard_normal((300, 1))
+    y = np.zeros((300, 1))
+    for k in range(1, 300):
+        y[k] = 1.02 * y[k - 1] + u[k - 1]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = moli.identify(moli.IOData(y, u), nmax=3, tuning="grid", center=False)
+    assert len(result.path) == 3
+    assert any(issubclass(w.category, moli.UnstableModelWarning) for w in caught)
