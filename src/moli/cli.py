@@ -35,7 +35,7 @@ INTERRUPTED = 130
 # --all-lists fits every list only for orders with at most this many lists: the count
 # C(n-1, p-1) grows fast, and each list costs one filter search.
 MAX_LISTS_PER_ORDER = 30
-DEMO_NMAX = 8
+DEMO_NMAX = 6
 
 
 class _Group(click.Group):
@@ -53,12 +53,19 @@ class _Group(click.Group):
 
 
 class _Progress:
-    """Progress bar over the orders of the greedy path."""
+    """Progress bar over the orders of the greedy path.
+
+    The bar appears with the first fitted order, so input rejected before the search
+    starts leaves stderr with the error line alone.
+    """
 
     def __init__(self, total: int) -> None:
-        self.bar = tqdm(total=total, desc="structure search", unit="order", file=sys.stderr)
+        self.total = total
+        self.bar: tqdm | None = None
 
     def __call__(self, step: PathStep) -> None:
+        if self.bar is None:
+            self.bar = tqdm(total=self.total, desc="structure search", unit="order", file=sys.stderr)
         self.bar.set_postfix_str(f"n={step.order} {list(step.indices)} VAF {step.mean_vaf:.1f}%", refresh=False)
         self.bar.update()
 
@@ -84,7 +91,8 @@ def _identify(data: IOData, fraction: float, nmax: int | None, seed: int, x0: st
         try:
             result = identify(estimation, validation, nmax=nmax, seed=seed, x0=x0, progress=progress)
         finally:
-            progress.bar.close()
+            if progress.bar is not None:
+                progress.bar.close()
     _echo_warnings(caught)
     if result.interrupted:
         click.echo(f"moli: search interrupted after {len(result.path)} orders; keeping the best "

@@ -50,15 +50,16 @@ def vaf_by_order(path: Sequence[PathStep], tried: Sequence[PathStep] = (), selec
     orders = [st.order for st in path]
     ax.plot(orders, [st.mean_vaf for st in path], "o-", color="C0", label="greedy path")
     for st in path:
+        # labels sit above the ring that marks the selected model, not under it
         ax.annotate(",".join(map(str, st.indices)), (st.order, st.mean_vaf), fontsize=7,
-                    textcoords="offset points", xytext=(0, 6), ha="center")
+                    textcoords="offset points", xytext=(0, 10), ha="center")
     if selected is not None:
         st = path[selected]
         ax.plot(st.order, st.mean_vaf, "o", markersize=14, markerfacecolor="none",
                 markeredgecolor="C3", markeredgewidth=2, label=f"selected (n = {st.order})")
     ax.set_xticks(range(min(orders), max(orders) + 1))
-    low = min(st.mean_vaf for st in [*path, *tried])
-    ax.set_ylim(max(low - 2.0, 0.0), 100.5)
+    scores = [st.mean_vaf for st in [*path, *tried]]
+    ax.set_ylim(max(min(scores) - 1.0, 0.0), min(max(scores) + 1.0, 100.5))
     ax.set_xlabel("order n")
     ax.set_ylabel("mean validation VAF (%)")
     ax.grid(alpha=0.3)
@@ -90,8 +91,9 @@ def measured_vs_simulated(data: IOData, comparison: Comparison) -> Figure:
         ax.set_title(f"VAF {comparison.vaf[i]:.1f} %, fit {comparison.fit[i]:.1f} %",
                      fontsize=9, loc="right")
         ax.grid(alpha=0.3)
-    axes[0].legend(loc="upper left", fontsize=8, ncols=2)
-    axes[-1].set_xlabel("time")
+    # outside the axes: inside, the legend hides the start-up transient of the first output
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside upper left", fontsize=8, ncols=2)
+    axes[-1].set_xlabel("time from the start of the record")
     return fig
 
 
@@ -112,9 +114,9 @@ def poles(model: StateSpaceModel) -> Figure:
     ax.plot(np.cos(angle), np.sin(angle), color="0.5", linewidth=1.0)
     z = model.poles()
     inside = np.abs(z) < 1.0
-    ax.plot(z.real[inside], z.imag[inside], "x", color="C0", markersize=9, mew=2, label="stable")
+    ax.plot(z.real[inside], z.imag[inside], "x", color="C0", markersize=8, mew=1.5, label="stable")
     if not inside.all():
-        ax.plot(z.real[~inside], z.imag[~inside], "x", color="C3", markersize=9, mew=2,
+        ax.plot(z.real[~inside], z.imag[~inside], "x", color="C3", markersize=8, mew=1.5,
                 label="on or outside the circle")
     reach = max(1.1, float(np.max(np.abs(z), initial=0.0)) * 1.1)
     ax.set_xlim(-reach, reach)
@@ -151,7 +153,7 @@ def step_responses(model: StateSpaceModel, samples: int) -> Figure:
         y = model.simulate(u)
         for i in range(model.p):
             ax = axes[i, j]
-            ax.plot(t, y[:, i], color="C0", linewidth=1.2)
+            ax.plot(t, y[:, i], color="C0", linewidth=1.2, drawstyle="steps-post")
             ax.axhline(0.0, color="0.8", linewidth=0.8)
             ax.grid(alpha=0.3)
             if i == 0:

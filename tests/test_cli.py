@@ -1,0 +1,172 @@
+"""End-to-end tests of the ``moli`` command: demo, fit, validate, info and bad input."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import moli
+from moli import cli
+from moli.io import fingerprint
+
+INPUTS, OUTPUTS = "u1,u2,u3", "y1,y2,y3"
+NMAX = 4  # the path 3, 4: enough to exercise the search and the order rule, fast
+
+
+def run(*args: str) -> "CliRunner.invoke":
+    return CliRunner().invoke(cli.cli, list(args), prog_name="moli")
+
+
+def run_process(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "moli", *args], cwd=cwd, capture_output=True,
+                          text=True, timeout=120)
+
+
+@pytest.fixture
+def record() -> moli.IOData:
+    return moli.example_data(N=400, seed=3)
+
+
+@pytest.fixture
+def csv_file(tmp_path: Path, record: moli.IOData) -> Path:
+    path = tmp_path / "plant.csv"
+    record.to_dataframe().to_csv(path)
+    return path
+
+
+def assert_clean_error(result, message: str) -> None:
+    """Exit code 2, one line on stderr naming the problem, no traceback."""
+    assert result.exit_code == 2, result.output
+    assert isinstance(result.exception, SystemExit)
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("moli: error: "), result.stderr
+    assert message in lines[0]
+
+
+def test_demo_in_a_fresh_folder_writes_report_and_model(tmp_path):
+    done = run_process("demo", "--nmax", str(NMAX), cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "selected: indices" in done.stdout
+    assert "structure search" in done.stderr  # the progress bar
+    folder = tmp_path / "moli-demo"
+    for name in ("report.html", "vaf_by_order.png", "validation.png", "poles.png",
+                 "step_responses.png"):
+        assert (folder / name).stat().st_size > 1000, name
+    model = moli.load_model(folder / "model.json")
+    assert (model.p, model.m) == (3, 3) and model.info["data"]["source"] == "moli.example_data()"
+
+
+def test_fit_validate_info_on_a_csv(tmp_path, csv_file, record):
+    model_path, report_dir = tmp_path / "out" / "model.json", tmp_path / "report"
+    fitted = run("fit", str(csv_file), "--inputs", INPUTS, "--outputs", OUTPUTS, "--nmax", str(NMAX),
+                 "--validation", "0.4", "--out", str(model_path), "--report", str(report_dir))
+    assert fitted.exit_code == 0, fitted.output + fitted.stderr
+    assert (report_dir / "report.html").stat().st_size > 1000
+
+    # the command must give exactly the model of the Python API on the same split
+    est, val = record.split(0.6)
+    expected = moli.identify(est, val, nmax=NMAX).model
+    saved = moli.load_model(model_path)
+    for name in "ABC":
+        np.testing.assert_array_equal(getattr(saved, name), getattr(expected, name))
+    assert saved.indices == expected.indices
+    np.testing.assert_array_equal(saved.alpha, expected.alpha)
+    assert saved.info["data"]["sha256"] == fingerprint(est)
+    assert saved.info["options"]["nmax"] == NMAX
+
+    plot = tmp_path / "check.png"
+    checked = run("validate", str(model_path), str(csv_file), "--plot", str(plot))
+    assert checked.exit_code == 0, checked.stderr
+    assert plot.stat().st_size > 1000
+    scores = moli.compare(saved, record)
+    for name, v, f in zip(record.output_names, scores.vaf, scores.fit):
+        assert f"{name:<16}{v:>9.2f}{f:>9.2f}" in checked.output
+
+    described = run("info", str(model_path))
+    assert described.exit_code == 0
+    assert f"observability indices: {list(saved.indices)}" in described.output
+    assert "stable: yes" in described.output and "Ts = 1" in described.output
+
+
+def test_ctrl_c_keeps_the_best_model_so_far(tmp_path, csv_file, monkeypatch):
+    calls = []
+
+    def interrupt_on_second_step(self, step):
+        calls.append(step)
+        if len(calls) == 2:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli._Progress, "__call__", interrupt_on_second_step)
+    model_path = tmp_path / "model.json"
+    result = run("fit", str(csv_file), "--inputs", INPUTS, "--outputs", OUTPUTS, "--nmax", "8",
+                 "--out", str(model_path))
+    assert result.exit_code == 0, result.stderr
+    assert "interrupted after 2 orders" in result.stderr
+    assert moli.load_model(model_path).n in (calls[0].order, calls[1].order)
+
+
+def write(path: Path, text: str) -> Path:
+    path.write_text(text)
+    return path
+
+
+BAD_INPUT = {
+    "missing file": (lambda d: d / "absent.csv", "no data file at"),
+    "unknown column": (lambda d: write(d / "a.csv", "u1,u2,u3,y1,y2,flow\n1,2,3,4,5,6\n"),
+                       "no column 'y3'"),
+    "non-numeric cell": (lambda d: write(d / "b.csv", "u1,u2,u3,y1,y2,y3\n1,2,3,4,5,6\n1,2,x,4,5,6\n"),
+                         "line 3, column 'u3': 'x' is not a number"),
+    "too few rows": (lambda d: write(d / "c.csv", "u1,u2,u3,y1,y2,y3\n" + "1,2,3,4,5,6\n" * 12),
+                     "too few samples"),
+}
+
+
+@pytest.mark.parametrize("case", BAD_INPUT)
+def test_fit_bad_input_is_one_line_and_exit_2(tmp_path, case):
+    make, message = BAD_INPUT[case]
+    result = run("fit", str(make(tmp_path)), "--inputs", INPUTS, "--outputs", OUTPUTS)
+    assert_clean_error(result, message)
+
+
+def test_validate_model_of_another_shape(tmp_path, csv_file):
+    small = tmp_path / "small.json"
+    moli.StateSpaceModel([[0.5]], [[1.0]], [[1.0]], output_names=["y1"], input_names=["u1"]).save(small)
+    result = run("validate", str(small), str(csv_file), "--inputs", INPUTS, "--outputs", "y1")
+    assert_clean_error(result, "model has 1 outputs and 1 inputs, data have 1 and 3")
+
+
+def test_model_file_with_inconsistent_matrices(tmp_path, csv_file):
+    path = tmp_path / "broken.json"
+    content = moli.StateSpaceModel(np.eye(2), np.ones((2, 3)), np.ones((3, 2))).to_dict()
+    content["C"] = [[1.0, 0.0, 0.0]]
+    path.write_text(json.dumps(content))
+    assert_clean_error(run("info", str(path)), "model file is inconsistent")
+    content["version"] = "99.0"
+    path.write_text(json.dumps(content))
+    assert_clean_error(run("validate", str(path), str(csv_file)), "cannot read")
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["fit"], "give either a DATA file or --daisy NAME"),
+        (["fit", "--daisy", "no-such-set"], "no-such-set"),
+        (["fit", "FILE", "--inputs", INPUTS, "--outputs", OUTPUTS, "--validation", "1.5"],
+         "--validation must be a fraction in (0, 1)"),
+    ],
+)
+def test_fit_option_errors(csv_file, args, message):
+    result = run(*[str(csv_file) if a == "FILE" else a for a in args])
+    assert_clean_error(result, message)
+
+
+def test_bad_input_in_a_real_process_has_no_traceback(tmp_path):
+    done = run_process("validate", "nothing.json", "nothing.csv", cwd=tmp_path)
+    assert done.returncode == 2
+    assert done.stderr == "moli: error: no model file at nothing.json\n"
