@@ -195,3 +195,27 @@ class IOData:
         if dy.shape != (self.p,) or du.shape != (self.m,):
             raise DataError(f"offsets must have shapes ({self.p},) and ({self.m},)")
         return self._with(self._y - dy, self._u - du, self.y_offset + dy, self.u_offset + du)
+
+    @classmethod
+    def from_csv(
+        cls, path: str, inputs: Sequence[str], outputs: Sequence[str], Ts: float | None = None
+    ) -> "IOData":
+        """Read a CSV file with a header row; see :func:`moli.io.read_data`."""
+        from .io import read_data
+
+        return read_data(path, inputs, outputs, Ts)
+
+    @classmethod
+    def from_dataframe(
+        cls, frame: object, inputs: Sequence[str], outputs: Sequence[str], Ts: float | None = None
+    ) -> "IOData":
+        """Columns of a pandas data frame; see :func:`moli.io.from_dataframe`."""
+        from .io import from_dataframe
+
+        return from_dataframe(frame, inputs, outputs, Ts)
+
+    def to_dataframe(self) -> object:
+        """The record as a pandas data frame indexed by time; see :func:`moli.io.to_dataframe`."""
+        from .io import to_dataframe
+
+        return to_dataframe(self)
