@@ -19,4 +19,5 @@ from .signals import random_binary_signal
 from .recursive import RecursiveMoli
 from .chunked import ChunkedEstimator
 from .filter_bank import FilterBank
-from . import control, signals, systems, tuning
+from .datasets import DatasetChecksumError, DatasetUnavailableError, list_daisy, load_daisy
+from . import control, datasets, signals, systems, tuning

@@ -51,6 +51,24 @@ def filtered_regressors(z: np.ndarray, alpha_j: np.ndarray) -> np.ndarray:
     return phi.reshape(N, c * l)
 
 
+# Rows per block of the tall-skinny QR: blocks stay in cache, so the cost per
+# sample does not grow with the record length.
+QR_BLOCK_ROWS = 8192
+
+
+def _triangular_factor(aug: np.ndarray) -> np.ndarray:
+    """R factor of a batch of tall matrices ``[phi | target]``, block by block.
+
+    The R of ``[R_previous; next block]`` is the R of all rows so far, so long
+    records are reduced in cache-sized blocks; Q is never formed, and the last
+    column of R holds ``Q^T target``.
+    """
+    r = np.linalg.qr(aug[:, :QR_BLOCK_ROWS], mode="r")
+    for start in range(QR_BLOCK_ROWS, aug.shape[1], QR_BLOCK_ROWS):
+        r = np.linalg.qr(np.concatenate([r, aug[:, start : start + QR_BLOCK_ROWS]], axis=1), mode="r")
+    return r
+
+
 def solve_batch(phi: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Least squares ``phi[r] theta[r] ~ target[r]`` for a batch, by QR.
 
@@ -69,11 +87,12 @@ def solve_batch(phi: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.nda
     norms = np.linalg.norm(phi, axis=1, keepdims=True)
     norms[norms == 0] = 1.0
     scaled = phi / norms
-    q, r = np.linalg.qr(scaled)
+    k = phi.shape[2]
+    r_aug = _triangular_factor(np.concatenate([scaled, target[..., None]], axis=2))
+    r, rhs = r_aug[:, :k, :k], r_aug[:, :k, k]
     diag = np.abs(np.diagonal(r, axis1=1, axis2=2))
     with np.errstate(divide="ignore"):
         cond = diag.max(axis=1) / diag.min(axis=1)
-    rhs = np.einsum("rnk,rn->rk", q, target)
     theta = np.empty(rhs.shape)
     good = cond < 1e13
     if good.any():
