@@ -50,7 +50,7 @@ def assert_clean_error(result, message: str) -> None:
 
 
 def test_demo_in_a_fresh_folder_writes_report_and_model(tmp_path):
-    done = run_process("demo", "--nmax", str(NMAX), cwd=tmp_path)
+    done = run_process("demo", "--nmax", str(NMAX), "--all-lists", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert "selected: indices" in done.stdout
     assert "structure search" in done.stderr  # the progress bar
@@ -58,6 +58,7 @@ def test_demo_in_a_fresh_folder_writes_report_and_model(tmp_path):
     for name in ("report.html", "vaf_by_order.png", "validation.png", "poles.png",
                  "step_responses.png"):
         assert (folder / name).stat().st_size > 1000, name
+    assert "every other list fitted" in (folder / "report.html").read_text()
     model = moli.load_model(folder / "model.json")
     assert (model.p, model.m) == (3, 3) and model.info["data"]["source"] == "moli.example_data()"
 

@@ -175,7 +175,11 @@ def demo(out_dir: Path, nmax: int, all_lists: bool) -> None:
 def fit(data_file: Path | None, inputs: str | None, outputs: str | None, daisy: str | None,
         data_dir: Path | None, ts: float | None, nmax: int | None, fraction: float, seed: int,
         x0: str, model_path: Path, report_dir: Path | None, all_lists: bool) -> None:
-    """Identify a model from DATA (CSV with a header row, .npz, .mat or .parquet)."""
+    """Identify a model from a CSV, .npz, .mat or .parquet file.
+
+    A CSV file needs a header row with the column names; a column named time or t
+    gives the sampling period unless --ts is given.
+    """
     if (data_file is None) == (daisy is None):
         raise DataError("give either a DATA file or --daisy NAME")
     if daisy is not None:
@@ -201,7 +205,11 @@ def fit(data_file: Path | None, inputs: str | None, outputs: str | None, daisy: 
               help="Where to write the measured-against-simulated figure.")
 def validate(model_file: Path, data_file: Path, inputs: str | None, outputs: str | None,
              x0: str, plot: Path) -> None:
-    """Simulate MODEL on the inputs of DATA and score it against the outputs."""
+    """Score MODEL on DATA: VAF and fit per output, and a figure.
+
+    DATA is read with the model's channel names and sampling period unless
+    --inputs/--outputs name other columns.
+    """
     model = load_model(model_file)
     data = read_data(data_file, _names(inputs) or list(model.input_names),
                      _names(outputs) or list(model.output_names), model.Ts)
@@ -219,7 +227,7 @@ def validate(model_file: Path, data_file: Path, inputs: str | None, outputs: str
 @cli.command()
 @click.argument("model_file", metavar="MODEL", type=click.Path(path_type=Path))
 def info(model_file: Path) -> None:
-    """Print the structure, poles, stability, Ts and channel names of MODEL."""
+    """Print structure, poles, stability, Ts and names of MODEL."""
     click.echo(describe(load_model(model_file)))
 
 

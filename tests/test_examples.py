@@ -1,0 +1,28 @@
+"""Every script in examples/ runs and writes its files into the folder it is given."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+EXAMPLES = sorted((Path(__file__).resolve().parents[1] / "examples").glob("*.py"))
+TIME_LIMIT = 60  # seconds; each script takes well under 20 s on a laptop
+
+
+def test_examples_are_found():
+    assert {"quickstart.py", "csv_to_model.py", "twin_rotor.py"} <= {p.name for p in EXAMPLES}
+
+
+@pytest.mark.parametrize("script", EXAMPLES, ids=lambda p: p.stem)
+def test_example_runs(script, tmp_path):
+    out = tmp_path / "out"
+    done = subprocess.run([sys.executable, str(script), str(out)], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=TIME_LIMIT)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "Traceback" not in done.stderr
+    written = [p for p in out.rglob("*") if p.is_file()]
+    assert written and all(p.stat().st_size > 0 for p in written)
+    assert list(tmp_path.iterdir()) == [out], "scripts must write only into the folder given"
