@@ -46,7 +46,7 @@ def vaf_by_order(path: Sequence[PathStep], tried: Sequence[PathStep] = (), selec
     ax = fig.add_subplot()
     if tried:
         ax.plot([st.order for st in tried], [st.mean_vaf for st in tried], "o", color="0.65",
-                markersize=4, label="every list fitted")
+                markersize=4, label="other lists fitted")
     orders = [st.order for st in path]
     ax.plot(orders, [st.mean_vaf for st in path], "o-", color="C0", label="greedy path")
     for st in path:
