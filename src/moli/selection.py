@@ -14,7 +14,7 @@ from .estimation import check_sample_count
 from .filters import filter_polynomial
 from .model import StateSpaceModel
 from .structure import Indices, compositions, raised
-from .tuning import FilterScorer, TuningResult, tune_filter
+from .tuning import FilterScorer, RegressionCache, TuningResult, tune_filter
 from .validation import compare
 
 
@@ -95,6 +95,7 @@ class StructureSearch:
         self.x0 = x0
         self._z = np.concatenate([estimation.y, estimation.u], axis=1)
         self._cache: dict[Indices, PathStep] = {}
+        self._regressions = RegressionCache(self._z, estimation.p)
 
     def feasible(self, indices: Indices) -> bool:
         """Whether the estimation record has enough samples for this list."""
@@ -110,7 +111,7 @@ class StructureSearch:
             return self._cache[indices]
         start = time.perf_counter()
         est = self.estimation
-        scorer = FilterScorer(self._z, indices, est.Ts, self.s)
+        scorer = FilterScorer(self._z, indices, est.Ts, self.s, self._regressions)
         tuned: TuningResult = tune_filter(
             scorer, self.omega, self.tuning, self.iterations, np.random.default_rng([self.seed, *indices])
         )
