@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner
+from click.testing import CliRunner, Result
 
 import moli
 from moli import cli
@@ -19,7 +19,7 @@ INPUTS, OUTPUTS = "u1,u2,u3", "y1,y2,y3"
 NMAX = 4  # the path 3, 4: enough to exercise the search and the order rule, fast
 
 
-def run(*args: str) -> "CliRunner.invoke":
+def run(*args: str) -> Result:
     return CliRunner().invoke(cli.cli, list(args), prog_name="moli")
 
 
