@@ -24,12 +24,11 @@ import numpy as np
 from .errors import FilterError
 from .structure import Indices
 
-# Imaginary parts below this (relative to the modulus) are treated as a real root:
-# np.roots returns a double real root as a pair split by about sqrt(eps) times the
-# spread of nearby roots (up to 4e-4 seen on slow filters with clustered roots); a
-# genuine pair this close to the axis has a period over 6000 samples, which no
-# record of a few thousand samples distinguishes from two real roots.
-_REAL_TOL = 1e-3
+# A pair whose imaginary part is below this share of its modulus may stand for two
+# real roots: np.roots splits a double real root into a pair by about sqrt(eps) times
+# the spread of nearby roots (up to ~1e-2 seen on slow filters with clustered double
+# roots, e.g. zeta = 1). The strictest reading that yields a valid divisor is used.
+_REAL_TOLERANCES = (1e-6, 1e-3, 1e-2, 5e-2)
 
 
 def _dominant_roots(wc: float, zeta: float, Ts: float) -> np.ndarray:
@@ -125,10 +124,10 @@ def check_alpha(alpha: Sequence[float]) -> np.ndarray:
     return coeffs
 
 
-def _root_groups(roots: np.ndarray) -> list[np.ndarray]:
+def _root_groups(roots: np.ndarray, tol: float) -> list[np.ndarray]:
     """Group roots into conjugate pairs and real singles, slowest first."""
     scale = np.maximum(np.abs(roots), 1e-300)
-    is_real = np.abs(roots.imag) <= _REAL_TOL * scale
+    is_real = np.abs(roots.imag) <= tol * scale
     groups = [np.array([r.real]) for r in roots[is_real]]
     upper = roots[~is_real & (roots.imag > 0)]
     groups += [np.array([r, np.conj(r)]) for r in upper]
@@ -137,19 +136,15 @@ def _root_groups(roots: np.ndarray) -> list[np.ndarray]:
     return groups
 
 
-def _pick_divisor(roots: np.ndarray, degree: int) -> np.ndarray:
-    """Coefficients of the divisor of the given degree chosen from ``roots`` by the root rule."""
-    groups = _root_groups(roots)
+def _select(groups: list[np.ndarray], degree: int) -> list[np.ndarray] | None:
+    """Slowest groups filling ``degree`` (an odd degree first takes the slowest real root)."""
     chosen: list[np.ndarray] = []
     budget = degree
     if degree % 2 == 1:
         reals = [i for i, g in enumerate(groups) if g.size == 1]
         if not reals:
-            raise FilterError(
-                f"alpha with roots {np.round(roots, 6).tolist()} has no real root, so it has "
-                f"no divisor of odd degree {degree}; build alpha with "
-                "filter_polynomial(..., indices) so that it carries one"
-            )
+            return None
+        groups = list(groups)
         chosen.append(groups.pop(reals[0]))
         budget -= 1
     for g in groups:
@@ -158,9 +153,20 @@ def _pick_divisor(roots: np.ndarray, degree: int) -> np.ndarray:
         if g.size <= budget:
             chosen.append(g)
             budget -= g.size
-    if budget:
-        raise FilterError(f"cannot pick a real divisor of degree {degree} from alpha's roots")
-    return np.real(np.poly(np.concatenate(chosen)))
+    return None if budget else chosen
+
+
+def _pick_divisor(roots: np.ndarray, degree: int) -> np.ndarray:
+    """Coefficients of the divisor of the given degree chosen from ``roots`` by the root rule."""
+    for tol in _REAL_TOLERANCES:
+        chosen = _select(_root_groups(roots, tol), degree)
+        if chosen is not None:
+            return np.real(np.poly(np.concatenate(chosen)))
+    raise FilterError(
+        f"alpha with roots {np.round(roots, 6).tolist()} has no real root, so it has no "
+        f"real divisor of degree {degree}; build alpha with filter_polynomial(..., indices) "
+        "so that it carries one"
+    )
 
 
 def divisor(alpha: Sequence[float], degree: int) -> np.ndarray:
