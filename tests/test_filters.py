@@ -9,10 +9,13 @@ from moli.filters import filter_roots
 indices_lists = st.lists(st.integers(1, 7), min_size=1, max_size=4)
 
 
+# wc from 0.05 rad/sample (1.6 % of Nyquist) up: slower filters put up to 7 roots within
+# 0.01 of each other near z = 1, where the coefficient form itself is ill-conditioned
+# (np.roots then misplaces roots by ~1e-3); identify builds those from roots directly.
 @settings(max_examples=300, deadline=None)
 @given(
     indices=indices_lists,
-    wc=st.floats(0.01, 2.5),
+    wc=st.floats(0.05, 2.5),
     zeta=st.floats(0.3, 3.0),
     s=st.floats(1.2, 4.0),
 )
