@@ -51,7 +51,6 @@ def greedy_speed() -> None:
             warnings.simplefilter("ignore", moli.UnstableModelWarning)
             seconds = best_of(lambda: moli.identify(est, val, nmax=15, omega=PAPER_OMEGA, **options), 3)
             result = moli.identify(est, val, nmax=15, omega=PAPER_OMEGA, **options)
-        fits = sum(st.model.info.get("evaluations", 0) for st in result.path)
         print(f"{label:34s} {seconds:6.3f} s = {seconds / one_solve:7.0f} solves; selected n = "
               f"{result.selected.order}, VAF {result.selected.mean_vaf:.2f} %")
     print("(published MATLAB time, 2015: 1.59 s to n = 11)")

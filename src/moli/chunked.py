@@ -17,11 +17,12 @@ from typing import Sequence
 
 import numpy as np
 
-from .errors import DataError, IllConditionedWarning, OptionError
+from .data import stack_signals
+from .errors import IllConditionedWarning, OptionError
 from .estimation import COND_LIMIT, check_sample_count, realize, solve_batch
 from .filters import check_alpha, divisors
 from .model import StateSpaceModel
-from .recursive import BankRls, as_samples
+from .recursive import BankRls
 from .structure import check_indices
 
 
@@ -85,11 +86,7 @@ class ChunkedEstimator:
         ChunkedEstimator
             ``self``.
         """
-        yy = as_samples("y", y, len(self.indices))
-        uu = as_samples("u", u, self.m)
-        if yy.shape[0] != uu.shape[0]:
-            raise DataError(f"y and u must have the same number of samples, got {yy.shape[0]} and {uu.shape[0]}")
-        self._bank.update(np.concatenate([yy, uu], axis=1))
+        self._bank.update(stack_signals(y, u, len(self.indices), self.m))
         return self
 
     def model(self) -> StateSpaceModel:

@@ -9,17 +9,22 @@ import numpy as np
 from .errors import DataError
 
 
-def _as_2d(name: str, values: object) -> np.ndarray:
-    """Copy ``values`` into a float array with time along axis 0."""
+def as_signal(name: str, values: object, channels: int | None = None) -> np.ndarray:
+    """Copy ``values`` into a finite float array of shape (N, channels), time along axis 0.
+
+    A 1-D array is one channel. Raises :class:`DataError` naming ``name`` and the
+    expected shape when the values are not numeric, not finite or not of that shape.
+    """
     try:
         array = np.array(values, dtype=float, copy=True)
     except (TypeError, ValueError) as exc:
         raise DataError(f"{name} must be numeric: {exc}") from None
     if array.ndim == 1:
         array = array[:, None]
-    if array.ndim != 2:
+    expected = "(N, channels)" if channels is None else f"(N, {channels})"
+    if array.ndim != 2 or (channels is not None and array.shape[1] != channels):
         raise DataError(
-            f"{name} must be 1-D (one channel) or 2-D with shape (N, channels), "
+            f"{name} must be 1-D (one channel) or 2-D with shape {expected}, "
             f"time along axis 0; got an array of shape {array.shape}"
         )
     if not np.all(np.isfinite(array)):
@@ -29,6 +34,15 @@ def _as_2d(name: str, values: object) -> np.ndarray:
             "remove or interpolate those samples first"
         )
     return array
+
+
+def stack_signals(y: object, u: object, p: int, m: int) -> np.ndarray:
+    """Outputs then inputs side by side, ``[y, u]`` of shape (N, p + m), checked."""
+    yy = as_signal("y", y, p)
+    uu = as_signal("u", u, m)
+    if yy.shape[0] != uu.shape[0]:
+        raise DataError(f"y and u must have the same number of samples, got {yy.shape[0]} and {uu.shape[0]}")
+    return np.concatenate([yy, uu], axis=1)
 
 
 def _names(given: Sequence[str] | None, count: int, prefix: str, what: str) -> tuple[str, ...]:
@@ -80,8 +94,8 @@ class IOData:
         output_names: Sequence[str] | None = None,
         input_names: Sequence[str] | None = None,
     ) -> None:
-        y_arr = _as_2d("y", y)
-        u_arr = _as_2d("u", u)
+        y_arr = as_signal("y", y)
+        u_arr = as_signal("u", u)
         if y_arr.shape[0] != u_arr.shape[0]:
             raise DataError(
                 f"y and u must have the same number of samples along axis 0: "

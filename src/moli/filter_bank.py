@@ -16,10 +16,11 @@ from typing import Sequence
 
 import numpy as np
 
+from .data import stack_signals
 from .errors import DataError, OptionError
 from .filters import filter_divisors, filter_polynomial
 from .model import StateSpaceModel
-from .recursive import BankRls, as_samples, check_options
+from .recursive import BankRls, check_options
 from .simulation import simulate_batch
 from .structure import check_indices
 from .tuning import barycenter, check_omega
@@ -121,11 +122,7 @@ class FilterBank:
         FilterBank
             ``self``.
         """
-        yy = as_samples("y", y, len(self.indices))
-        uu = as_samples("u", u, self.m)
-        if yy.shape[0] != uu.shape[0]:
-            raise DataError(f"y and u must have the same number of samples, got {yy.shape[0]} and {uu.shape[0]}")
-        z = np.concatenate([yy, uu], axis=1)
+        z = stack_signals(y, u, len(self.indices), self.m)
         start = 0
         while start < z.shape[0]:
             # stop at the next multiple of retune_every so scoring sees the right window

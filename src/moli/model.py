@@ -10,6 +10,7 @@ from typing import Any, Sequence
 import numpy as np
 
 from ._version import __version__
+from .data import as_signal
 from .errors import DataError, ModelFileError, UnstableModelWarning
 from .simulation import simulate_batch
 
@@ -113,18 +114,6 @@ class StateSpaceModel:
         lists = f", indices={list(self.indices)}" if self.indices else ""
         return f"StateSpaceModel(n={self.n}, p={self.p}, m={self.m}, Ts={self.Ts:g}{lists}, stable={self.is_stable()})"
 
-    def _inputs(self, u: object) -> np.ndarray:
-        array = np.array(u, dtype=float, copy=True)
-        if array.ndim == 1 and self.m == 1:
-            array = array[:, None]
-        if array.ndim != 2 or array.shape[1] != self.m:
-            raise DataError(
-                f"u must have shape (N, {self.m}) with time along axis 0, got {np.shape(u)}"
-            )
-        if not np.all(np.isfinite(array)):
-            raise DataError("u contains NaN or inf")
-        return array
-
     def simulate(self, u: object, x0: object | None = None) -> np.ndarray:
         """Simulate the model (deviation variables).
 
@@ -139,7 +128,7 @@ class StateSpaceModel:
         -------
         ndarray, shape (N, p)
         """
-        uu = self._inputs(u)
+        uu = as_signal("u", u, self.m)
         start = None
         if x0 is not None:
             start = np.array(x0, dtype=float).reshape(-1)

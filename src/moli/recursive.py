@@ -17,7 +17,8 @@ from typing import Sequence
 import numpy as np
 
 from .causal import CausalRegressors
-from .errors import DataError, OptionError
+from .data import stack_signals
+from .errors import OptionError
 from .estimation import realize
 from .filters import check_alpha, divisors
 from .model import StateSpaceModel
@@ -37,23 +38,6 @@ def check_options(forgetting: float, noise_variance: float, p0: float) -> None:
         raise OptionError(f"noise_variance must be positive and finite, got {noise_variance!r}")
     if not (p0 > 0 and not np.isnan(p0)):
         raise OptionError(f"p0 must be positive (inf for no prior), got {p0!r}")
-
-
-def as_samples(name: str, values: object, channels: int) -> np.ndarray:
-    """Copy ``values`` into a finite float array of shape (N, channels), time along axis 0."""
-    try:
-        array = np.array(values, dtype=float, copy=True)
-    except (TypeError, ValueError) as exc:
-        raise DataError(f"{name} must be numeric: {exc}") from None
-    if array.ndim == 1 and channels == 1:
-        array = array[:, None]
-    if array.ndim != 2 or array.shape[1] != channels:
-        raise DataError(
-            f"{name} must have shape (N, {channels}) with time along axis 0, got {array.shape}"
-        )
-    if not np.all(np.isfinite(array)):
-        raise DataError(f"{name} contains NaN or inf")
-    return array
 
 
 def solve_triangular_batch(factor: np.ndarray, count: int) -> np.ndarray:
@@ -219,11 +203,7 @@ class RecursiveMoli:
 
     def update(self, y_k: object, u_k: object) -> "RecursiveMoli":
         """Absorb one sample: outputs ``y_k`` (p,) and inputs ``u_k`` (m,)."""
-        p = len(self.indices)
-        y = as_samples("y_k", np.reshape(np.asarray(y_k, dtype=float), (1, -1)), p)
-        u = as_samples("u_k", np.reshape(np.asarray(u_k, dtype=float), (1, -1)), self.m)
-        self._bank.update(np.concatenate([y, u], axis=1))
-        return self
+        return self.update_many(np.reshape(y_k, (1, -1)), np.reshape(u_k, (1, -1)))
 
     def update_many(self, y: object, u: object) -> "RecursiveMoli":
         """Absorb a chunk of samples.
@@ -240,11 +220,7 @@ class RecursiveMoli:
         RecursiveMoli
             ``self``.
         """
-        yy = as_samples("y", y, len(self.indices))
-        uu = as_samples("u", u, self.m)
-        if yy.shape[0] != uu.shape[0]:
-            raise DataError(f"y and u must have the same number of samples, got {yy.shape[0]} and {uu.shape[0]}")
-        self._bank.update(np.concatenate([yy, uu], axis=1))
+        self._bank.update(stack_signals(y, u, len(self.indices), self.m))
         return self
 
     @property
