@@ -6,8 +6,9 @@ from it and minimizes the *simulation* error on the estimation record,
     V(theta, x0) = sum_j |y_j - yhat_j(theta, x0)|^2 / |y_j|^2
                    + ridge * sum_k d_k^2 (theta_k - theta0_k)^2,
 
-over the same parameters ``theta`` (the observer-form matrices ``D``, ``B`` and the
-output coupling ``G`` of ALGORITHM.md section 4, with the filter ``alpha`` kept), and
+over the same parameters ``theta`` (the observer-form matrices ``D``, ``B``, the
+output coupling ``G`` of ALGORITHM.md section 4 and the feedthrough when the model
+has one, with the filter ``alpha`` kept), and
 optionally the initial state ``x0`` of the estimation record, a nuisance parameter.
 ``d_k`` is the norm of the ``k``-th Jacobian column at the start, so ``ridge`` is a
 fraction of the data term's own curvature and does not depend on the units.
@@ -38,16 +39,21 @@ MAX_RADIUS = 1.0 - 1e-3
 
 @dataclass
 class ObserverForm:
-    """The observer-form pieces of a MOLI model: ``A = A_D + D C``, ``C = (I - G)^-1 C_D``."""
+    """The observer-form pieces of a MOLI model.
+
+    ``A = A_D + D C``, ``C = (I - G)^-1 C_D``; ``B`` and the feedthrough ``F`` (zero
+    unless the model was estimated with one) are free.
+    """
 
     A_D: np.ndarray
     C_D: np.ndarray
     D: np.ndarray
     B: np.ndarray
     G: np.ndarray
+    F: np.ndarray
 
     def matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(A, B, C)`` of the model."""
+        """``(A, B, C)`` of the model (its feedthrough is ``F``)."""
         p = self.G.shape[0]
         C = np.linalg.solve(np.eye(p) - self.G, self.C_D)
         return self.A_D + self.D @ C, self.B, C
@@ -82,7 +88,7 @@ def observer_form(model: StateSpaceModel) -> ObserverForm:
     G = np.eye(p) - np.linalg.inv(inverse)  # p x p triangular, p small
     G = np.tril(G, -1)
     D = np.linalg.lstsq(model.C.T, (model.A - A_D).T, rcond=None)[0].T
-    return ObserverForm(A_D, C_D, D, model.B.copy(), G)
+    return ObserverForm(A_D, C_D, D, model.B.copy(), G, model.D.copy())
 
 
 @dataclass
@@ -132,6 +138,7 @@ class _Problem:
 
     def __init__(self, form: ObserverForm, u: np.ndarray, y: np.ndarray, fit_x0: bool) -> None:
         self.form = form
+        self.feedthrough = bool(np.any(form.F != 0))
         self.u, self.y = u, y
         self.n, self.p, self.m = form.B.shape[0], y.shape[1], u.shape[1]
         self.weights = 1.0 / np.maximum(np.linalg.norm(y, axis=0), 1e-300)
@@ -140,6 +147,8 @@ class _Problem:
 
     def pack(self, form: ObserverForm, x0: np.ndarray) -> np.ndarray:
         parts = [form.D.ravel(), form.B.ravel(), form.G[self.lower]]
+        if self.feedthrough:
+            parts.append(form.F.ravel())
         if self.fit_x0:
             parts.append(x0)
         return np.concatenate(parts)
@@ -151,13 +160,18 @@ class _Problem:
         G = np.zeros((p, p))
         count = len(self.lower[0])
         G[self.lower] = theta[n * p + n * m : n * p + n * m + count]
-        x0 = theta[n * p + n * m + count :] if self.fit_x0 else np.zeros(n)
-        return ObserverForm(self.form.A_D, self.form.C_D, D, B, G), x0
+        at = n * p + n * m + count
+        F = np.zeros((p, m))
+        if self.feedthrough:
+            F = theta[at : at + p * m].reshape(p, m)
+            at += p * m
+        x0 = theta[at:] if self.fit_x0 else np.zeros(n)
+        return ObserverForm(self.form.A_D, self.form.C_D, D, B, G, F), x0
 
     def simulate(self, theta: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, ...], np.ndarray]:
         form, x0 = self.unpack(theta)
         A, B, C = form.matrices()
-        yhat = simulate_batch(A[None], B[None], C[None], self.u, x0[None])[0]
+        yhat = simulate_batch(A[None], B[None], C[None], self.u, x0[None])[0] + self.u @ form.F.T
         return yhat, (A, B, C), form.G
 
     def residual(self, yhat: np.ndarray) -> np.ndarray:
@@ -168,7 +182,8 @@ class _Problem:
         n, p, m = self.n, self.p, self.m
         form, _ = self.unpack(theta)
         A, _, C = form.matrices()
-        S, free = _sensitivities(A, C, np.concatenate([self.u, yhat], axis=1))
+        yx = yhat - self.u @ form.F.T                   # C x: the part the state produces
+        S, free = _sensitivities(A, C, np.concatenate([self.u, yx], axis=1))
         N = self.y.shape[0]
         cols = [
             S[:, :, :, m:].reshape(N, p, n * p),       # D[a, b]: signal yhat_b into state a
@@ -177,11 +192,14 @@ class _Problem:
         H = np.linalg.inv(np.eye(p) - form.G)
         g_cols = []
         for i, j in zip(*self.lower):
-            direct = np.outer(yhat[:, j], H[:, i])                         # dC x = H e_i yhat_j
+            direct = np.outer(yx[:, j], H[:, i])                           # dC x = H e_i (C x)_j
             through = np.einsum("tpa,a->tp", S[:, :, :, m + j], form.D @ H[:, i])
             g_cols.append(direct + through)
         if g_cols:
             cols.append(np.stack(g_cols, axis=2))
+        if self.feedthrough:                       # F[i, j]: u_j straight to y_i
+            eye = np.eye(p)
+            cols.append((eye[None, :, :, None] * self.u[:, None, None, :]).reshape(N, p, p * m))
         if self.fit_x0:
             cols.append(free)
         jac = np.concatenate(cols, axis=2) * self.weights[None, :, None]
@@ -308,7 +326,7 @@ def refine(
     info.update({"refined": True, "refine_iterations": accepted, "refine_ridge": ridge,
                  "refine_cost_start": cost_start, "refine_cost": cost})
     refined = StateSpaceModel(
-        A, B, C, Ts=model.Ts, output_names=model.output_names, input_names=model.input_names,
+        A, B, C, form_end.F, Ts=model.Ts, output_names=model.output_names, input_names=model.input_names,
         indices=model.indices, alpha=model.alpha, y_offset=model.y_offset,
         u_offset=model.u_offset, info=info,
     )

@@ -79,12 +79,23 @@ class StructureSearch:
         list gets the same model whichever search reaches it.
     x0 : {"zero", "estimate"}
         Initial state of the validation simulation.
+    criterion_x0 : {"zero", "estimate"}
+        Initial state of the estimation-data simulations behind J (the paper: zero).
+    feedthrough : bool, default False
+        Estimate a direct feedthrough ``D`` (current inputs as extra regressors).
+    max_radius : float, optional
+        Filter candidates whose model has a pole of at least this modulus score the
+        worst J (see :class:`moli.tuning.FilterScorer`); None scores fit alone (paper).
     """
 
     def __init__(
         self, estimation: IOData, validation: IOData, omega: np.ndarray, tuning: str = "random",
         iterations: int = 5, s: float = 2.0, seed: int = 0, x0: str = "zero",
+        criterion_x0: str = "zero", feedthrough: bool = False, max_radius: float | None = None,
     ) -> None:
+        self.max_radius = max_radius
+        self.criterion_x0 = criterion_x0
+        self.feedthrough = feedthrough
         self.estimation = estimation
         self.validation = validation
         self.omega = omega
@@ -95,7 +106,7 @@ class StructureSearch:
         self.x0 = x0
         self._z = np.concatenate([estimation.y, estimation.u], axis=1)
         self._cache: dict[Indices, PathStep] = {}
-        self._regressions = RegressionCache(self._z, estimation.p)
+        self._regressions = RegressionCache(self._z, estimation.p, feedthrough)
 
     def feasible(self, indices: Indices) -> bool:
         """Whether the estimation record has enough samples for this list."""
@@ -105,29 +116,38 @@ class StructureSearch:
             return False
         return True
 
-    def fit(self, indices: Indices) -> PathStep:
-        """Tune the filter, estimate and validate one list (cached)."""
+    def fit(self, indices: Indices, validate: bool = True) -> PathStep:
+        """Tune the filter, estimate and (unless told not to) validate one list (cached).
+
+        With ``validate=False`` the step's ``vaf`` is left empty (NaN) until a later
+        call validates it: the greedy path validates only the lists it keeps.
+        """
         if indices in self._cache:
-            return self._cache[indices]
+            step = self._cache[indices]
+            if validate and np.isnan(step.vaf).any():
+                step.vaf = compare(step.model, self.validation, self.x0).vaf
+            return step
         start = time.perf_counter()
         est = self.estimation
-        scorer = FilterScorer(self._z, indices, est.Ts, self.s, self._regressions)
+        scorer = FilterScorer(
+            self._z, indices, est.Ts, self.s, self._regressions, self.criterion_x0, self.max_radius
+        )
         tuned: TuningResult = tune_filter(
             scorer, self.omega, self.tuning, self.iterations, np.random.default_rng([self.seed, *indices])
         )
         wc, zeta = tuned.eta
         model = StateSpaceModel(
-            tuned.A, tuned.B, tuned.C, Ts=est.Ts, output_names=est.output_names,
+            tuned.A, tuned.B, tuned.C, tuned.D, Ts=est.Ts, output_names=est.output_names,
             input_names=est.input_names, indices=indices,
             alpha=filter_polynomial(wc, zeta, indices, est.Ts, self.s),
             y_offset=est.y_offset, u_offset=est.u_offset,
             info={"wc": float(wc), "zeta": float(zeta), "s": self.s, "J": tuned.J,
                   "J_barycenter": tuned.J_barycenter, "evaluations": tuned.evaluations},
         )
-        scores = compare(model, self.validation, self.x0)
+        vaf = compare(model, self.validation, self.x0).vaf if validate else np.full(est.p, np.nan)
         step = PathStep(
             indices=indices, order=sum(indices), J=tuned.J, J_barycenter=tuned.J_barycenter,
-            eta=tuned.eta, vaf=scores.vaf, model=model, seconds=time.perf_counter() - start,
+            eta=tuned.eta, vaf=vaf, model=model, seconds=time.perf_counter() - start,
         )
         self._cache[indices] = step
         return step
@@ -160,8 +180,8 @@ def greedy_path(
         candidates = [c for c in raised(path[-1].indices) if search.feasible(c)]
         if not candidates:
             break
-        steps = [search.fit(c) for c in candidates]
-        path.append(min(steps, key=lambda st: st.J))
+        steps = [search.fit(c, validate=False) for c in candidates]
+        path.append(search.fit(min(steps, key=lambda st: st.J).indices))
         if progress:
             progress(path[-1])
     return path

@@ -18,8 +18,9 @@ from .estimation import filtered_regressors, fit_batch, realize, solve_batch
 from .filters import _pick_divisor, filter_divisors, filter_roots
 from .simulation import simulate_batch
 from .structure import Indices
+from .validation import X0_CHOICES
 
-TUNING_METHODS = ("grid", "random")
+TUNING_METHODS = ("grid", "random", "zoom")
 # The paper's weight: mu = 40 / min J, i.e. a candidate whose J is 10 % above the
 # best weighs exp(-4) ~ 2 % of it.
 MU_SCALE = 40.0
@@ -103,12 +104,15 @@ class RegressionCache:
         Number of outputs.
     """
 
-    def __init__(self, z: np.ndarray, p: int) -> None:
+    def __init__(self, z: np.ndarray, p: int, feedthrough: bool = False) -> None:
         self.z = z
         self.p = p
+        self.feedthrough = bool(feedthrough)
+        # columns appended to xi: the outputs, and the inputs when they feed through
+        self.extra = z.shape[1] if feedthrough else p
         self._factors: dict[bytes, np.ndarray] = {}
         self._thetas: dict[tuple[bytes, int, int], tuple[np.ndarray, float]] = {}
-        self._filters: dict[tuple, tuple[np.ndarray, dict[int, np.ndarray]]] = {}
+        self._filters: dict[tuple, tuple[np.ndarray, dict[int, np.ndarray], np.ndarray]] = {}
         self.factorizations = 0
         self.solves = 0
 
@@ -117,18 +121,20 @@ class RegressionCache:
     ) -> tuple[np.ndarray, dict[int, np.ndarray]]:
         """``alpha`` and its divisors by degree for ``eta = (wc, zeta)`` (cached).
 
-        The roots depend on ``indices`` only through ``max(indices)`` and the set of
-        index values (see :mod:`moli.filters`), which is the cache key.
+        The roots depend on ``indices`` only through ``max(indices)`` and whether an
+        odd index below it needs a real root (see :mod:`moli.filters`): that is the key.
         """
-        key = (wc, zeta, Ts, s, max(indices), frozenset(indices))
+        nbar = max(indices)
+        needs_real = any(l % 2 == 1 and l < nbar for l in indices)
+        key = (wc, zeta, Ts, s, nbar, needs_real)
         if key not in self._filters:
             roots = filter_roots(wc, zeta, indices, Ts, s)
             alpha = np.real(np.poly(roots))
-            nbar = alpha.size - 1
-            self._filters[key] = (
-                alpha, {l: (alpha if l == nbar else _pick_divisor(roots, l)) for l in set(indices)}
-            )
-        return self._filters[key]
+            self._filters[key] = (alpha, {nbar: alpha}, roots)
+        alpha, divs, roots = self._filters[key]
+        for l in set(indices) - divs.keys():
+            divs[l] = _pick_divisor(roots, l)
+        return alpha, divs
 
     def factor(self, alphas: Sequence[np.ndarray]) -> list[np.ndarray]:
         """Triangular factors of ``[xi, y]`` for each filter polynomial (batched, cached)."""
@@ -140,10 +146,10 @@ class RegressionCache:
                 by_degree.setdefault(a.size - 1, []).append((k, a))
             N, c = self.z.shape
             for nbar, items in by_degree.items():
-                stack = np.empty((len(items), N - nbar, c * nbar + self.p))
+                stack = np.empty((len(items), N - nbar, c * nbar + self.extra))
                 for i, (_, a) in enumerate(items):
                     stack[i, :, : c * nbar] = filtered_regressors(self.z, a)[nbar:]
-                stack[:, :, c * nbar :] = self.z[nbar:, : self.p]
+                stack[:, :, c * nbar :] = self.z[nbar:, : self.extra]
                 factors = np.linalg.qr(stack, mode="r")
                 for (k, _), r in zip(items, factors):
                     self._factors[k] = r
@@ -158,7 +164,8 @@ class RegressionCache:
         Returns
         -------
         thetas : list of ndarray
-            ``thetas[j]`` has shape (R, (p + m) l_j + j).
+            ``thetas[j]`` has shape (R, (p + m) l_j + j), followed by the ``m``
+            feedthrough coefficients when the cache was built with ``feedthrough``.
         cond : ndarray, shape (R,)
             Worst condition estimate over the outputs.
         """
@@ -169,14 +176,15 @@ class RegressionCache:
         thetas = []
         cond = np.ones(R)
         for j, l in enumerate(indices):
-            out = np.empty((R, c * l + j))
+            extra_u = c - self.p if self.feedthrough else 0
+            out = np.empty((R, c * l + j + extra_u))
             missing = [r for r in range(R) if (keys[r], j, l) not in self._thetas]
             if missing:
                 small, rhs = [], []
                 for r in missing:
-                    T = _regressor_map(alphas[r], divisors_[r][j], c, self.p, j)
-                    small.append(factors[r] @ T)
-                    rhs.append(factors[r][:, c * (alphas[r].size - 1) + j])
+                    M, b = _small_problem(factors[r], alphas[r], divisors_[r][j], c, self.p, j, extra_u)
+                    small.append(M)
+                    rhs.append(b)
                 rows = {M.shape[0] for M in small}
                 if len(rows) == 1 and rows.pop() >= small[0].shape[1]:
                     theta, cnd = solve_batch(np.stack(small), np.stack(rhs))
@@ -194,12 +202,11 @@ class RegressionCache:
         return thetas, cond
 
 
-def _regressor_map(alpha: np.ndarray, alpha_j: np.ndarray, c: int, p: int, j: int) -> np.ndarray:
-    """Matrix ``T`` with ``[xi, y] T`` = output ``j``'s regressors ``[w_j, y_<j]``.
+def _quotient_map(alpha: np.ndarray, alpha_j: np.ndarray) -> np.ndarray:
+    """``(nbar, l)`` matrix ``Q`` with ``Q[t, i]`` the weight of ``q^t/alpha`` in ``q^i/alpha_j``.
 
-    Column ``r l + i`` is ``q^i (alpha/alpha_j)(q) / alpha(q)`` applied to channel ``r``:
-    with ``alpha/alpha_j = sum_k c_k q^(d-k)``, ``d = nbar - l``, it is
-    ``sum_k c_k xi_(r, i+d-k)``.
+    With ``alpha/alpha_j = sum_k c_k q^(d-k)``, ``d = nbar - l``:
+    ``q^i/alpha_j = q^i (alpha/alpha_j)/alpha = sum_k c_k q^(i+d-k)/alpha``.
     """
     nbar, l = alpha.size - 1, alpha_j.size - 1
     d = nbar - l
@@ -209,15 +216,71 @@ def _regressor_map(alpha: np.ndarray, alpha_j: np.ndarray, c: int, p: int, j: in
     for k in range(d + 1):
         quotient[k] = rest[k]
         rest[k : k + l + 1] -= quotient[k] * alpha_j
-    T = np.zeros((c, nbar, c, l))
-    channels = np.arange(c)
-    for i in range(l):
-        for k in range(d + 1):
-            T[channels, i + d - k, channels, i] = quotient[k]
-    T = T.reshape(c * nbar, c * l)
-    tail = np.zeros((p, c * l + j))
+    Q = np.zeros((nbar, l))
+    for k in range(d + 1):
+        Q[np.arange(l) + d - k, np.arange(l)] = quotient[k]
+    return Q
+
+
+def _regressor_map(
+    alpha: np.ndarray, alpha_j: np.ndarray, c: int, p: int, j: int, m: int = 0
+) -> np.ndarray:
+    """Matrix ``T`` with ``[xi, y] T`` = output ``j``'s regressors ``[w_j, y_<j]``.
+
+    Column ``r l + i`` is ``q^i/alpha_j`` applied to channel ``r``, a combination of the
+    columns ``r nbar + t`` of ``xi`` (see :func:`_quotient_map`). With ``m > 0`` the data
+    matrix is ``[xi, y, u]`` and the ``m`` current inputs are appended to the regressors
+    (direct feedthrough).
+    """
+    nbar, l = alpha.size - 1, alpha_j.size - 1
+    T = np.kron(np.eye(c), _quotient_map(alpha, alpha_j))
+    tail = np.zeros((p + m, c * l + j + m))
     tail[np.arange(j), c * l + np.arange(j)] = 1.0
-    return np.vstack([np.hstack([T, np.zeros((c * nbar, j))]), tail])
+    tail[p + np.arange(m), c * l + j + np.arange(m)] = 1.0
+    return np.vstack([np.hstack([T, np.zeros((c * nbar, j + m))]), tail])
+
+
+def _small_problem(
+    factor: np.ndarray, alpha: np.ndarray, alpha_j: np.ndarray, c: int, p: int, j: int, m: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(R T, R e)``: output ``j``'s least-squares problem reduced by the factor ``R``.
+
+    Same as ``factor @ _regressor_map(...)`` without forming ``T``.
+    """
+    nbar = alpha.size - 1
+    k = factor.shape[0]
+    Q = _quotient_map(alpha, alpha_j)
+    w = (factor[:, : c * nbar].reshape(k, c, nbar) @ Q).reshape(k, -1)
+    tail = factor[:, c * nbar : c * nbar + j]
+    parts = [w, tail]
+    if m:
+        parts.append(factor[:, c * nbar + p : c * nbar + p + m])
+    return np.concatenate(parts, axis=1), factor[:, c * nbar + j]
+
+
+def _realize_feedthrough(
+    thetas: Sequence[np.ndarray], parts: Sequence[Sequence[np.ndarray]], indices: Indices, m: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """State-space batch of observer-form fits whose last ``m`` parameters feed ``u`` through.
+
+    Output ``j``'s equation is ``y_j = theta_j w_j + g_j y_<j + f_j u``, so
+    ``y = (I - G)^-1 (C_D x + F u)``: ``C`` is unchanged, ``D = (I - G)^-1 F``, and the
+    observer's output injection ``D_y y`` adds ``D_y D`` to ``B``.
+    """
+    p = len(indices)
+    core = [t[:, :-m] for t in thetas]
+    A, B, C = realize(core, parts, indices, m)
+    R = A.shape[0]
+    F = np.stack([t[:, -m:] for t in thetas], axis=1)             # (R, p, m)
+    H = C[:, :, np.cumsum(indices) - 1]                           # (I - G)^-1
+    D = H @ F
+    D_y = np.zeros((R, sum(indices), p))
+    start = 0
+    for j, l in enumerate(indices):
+        coeffs = core[j][:, : (p + m) * l].reshape(R, p + m, l).transpose(0, 2, 1)
+        D_y[:, start : start + l] = coeffs[:, :, :p]
+        start += l
+    return A, B + D_y @ D, C, D
 
 
 class FilterScorer:
@@ -234,12 +297,24 @@ class FilterScorer:
         Factorizations shared with the other lists of a search on the same ``z``;
         without one, each candidate is estimated directly by :func:`fit_batch`. Both
         routes give the same models up to round-off.
+    x0 : {"zero", "estimate"}
+        Initial state of the simulations behind J: zero (the paper), or fitted by least
+        squares to the estimation record (the record need not start at rest).
+    max_radius : float, optional
+        Candidates with a pole of at least this modulus score the worst J, 1, so that
+        tuning and the structure path never prefer a (nearly) unstable model. None
+        (the paper) scores every candidate by its fit alone.
     """
 
     def __init__(
         self, z: np.ndarray, indices: Indices, Ts: float, s: float,
-        cache: RegressionCache | None = None,
+        cache: RegressionCache | None = None, x0: str = "zero",
+        max_radius: float | None = None,
     ) -> None:
+        self.max_radius = max_radius
+        if x0 not in X0_CHOICES:
+            raise OptionError(f"x0 must be one of {X0_CHOICES}, got {x0!r}")
+        self.x0 = x0
         self.z = z
         self.indices = indices
         self.Ts = Ts
@@ -251,8 +326,8 @@ class FilterScorer:
         self.y_var = np.var(self.y, axis=0)
         self.evaluations = 0
 
-    def fit(self, etas: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The batch of models ``(A, B, C)`` estimated with each candidate filter."""
+    def fit(self, etas: np.ndarray) -> tuple[np.ndarray, ...]:
+        """The batch of models ``(A, B, C)`` (and ``D`` with feedthrough) for each candidate."""
         p = len(self.indices)
         if self.cache is None:
             alphas = [filter_divisors(w, zeta, self.indices, self.Ts, self.s) for w, zeta in etas]
@@ -264,17 +339,28 @@ class FilterScorer:
             full.append(alpha)
             parts.append([divs[l] for l in self.indices])
         thetas, _ = self.cache.thetas(full, parts, self.indices)
-        return realize(thetas, parts, self.indices, self.z.shape[1] - p)
+        m = self.z.shape[1] - p
+        if not self.cache.feedthrough:
+            return realize(thetas, parts, self.indices, m)
+        return _realize_feedthrough(thetas, parts, self.indices, m)
 
-    def score(self, etas: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-        """J of each candidate and the batch of fitted models ``(A, B, C)``."""
-        A, B, C = self.fit(etas)
+    def score(self, etas: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
+        """J of each candidate and the batch of fitted models ``(A, B, C[, D])``."""
+        matrices = self.fit(etas)
+        A, B, C = matrices[:3]
         yhat = simulate_batch(A, B, C, self.u)
+        if len(matrices) == 4:
+            yhat = yhat + self.u @ matrices[3].transpose(0, 2, 1)
+        if self.x0 == "estimate":
+            yhat = yhat + _initial_response(A, C, self.y[None] - yhat)
         with np.errstate(all="ignore"):
             ratio = np.var(self.y[None] - yhat, axis=1) / self.y_var
         ratio = np.where(np.isfinite(ratio), np.minimum(ratio, 1.0), 1.0)
+        if self.max_radius is not None:
+            radius = np.max(np.abs(np.linalg.eigvals(A)), axis=1)
+            ratio[radius >= self.max_radius] = 1.0
         self.evaluations += len(etas)
-        return ratio.mean(axis=1), (A, B, C)
+        return ratio.mean(axis=1), matrices
 
 
 @dataclass
@@ -297,6 +383,8 @@ class TuningResult:
         Number of least-squares fits (each one per output) performed.
     A, B, C : ndarray
         Matrices of the chosen model.
+    D : ndarray or None
+        Its feedthrough, when the scorer estimates one.
     """
 
     eta: np.ndarray
@@ -308,6 +396,7 @@ class TuningResult:
     A: np.ndarray = field(repr=False)
     B: np.ndarray = field(repr=False)
     C: np.ndarray = field(repr=False)
+    D: np.ndarray | None = field(default=None, repr=False)
 
 
 class _Tracker:
@@ -340,15 +429,19 @@ def tune_filter(
     scorer : FilterScorer
     omega : ndarray, shape (R, 2)
         Grid of candidates ``(wc, zeta)``.
-    method : {"grid", "random"}
-        ``"grid"``: one barycenter over ``omega`` (paper eq. 5). ``"random"``: the
+    method : {"grid", "random", "zoom"}
+        ``"grid"``: one barycenter over ``omega`` (paper eq. 5). ``"zoom"``: a bounded
+        coarse-to-fine search from the best point of ``omega``: each step scores the
+        eight neighbours at half the previous spacing (wc on a log scale, the first
+        spacing half of ``omega``'s), clipped to ``omega``'s bounding box, and moves to
+        the best point seen. ``"random"``: the
         paper's randomized variant; starting from the grid barycenter, each step
         scores seven candidates (the previous barycenter, three points of ``omega``
         drawn at random, three normal draws around the barycenter with standard
         deviation 20 % of the range of ``omega``'s wc and zeta values, clipped to
         ``omega``'s bounding box) and moves to their barycenter.
     iterations : int, default 5
-        Steps of the randomized variant.
+        Steps of the randomized or the zoom search.
     seed : int or numpy.random.Generator
         Seed of the random draws (results are reproducible for a given seed).
 
@@ -367,10 +460,9 @@ def tune_filter(
     best.offer(omega, costs, matrices)
     grid_best = best.J
     center = barycenter(omega, costs)
-    if method == "grid":
-        steps = 0
-    else:
-        steps = int(iterations)
+    if method == "zoom":
+        return _zoom(scorer, omega, best, center, grid_best, int(iterations), start)
+    steps = 0 if method == "grid" else int(iterations)
     low, high = omega.min(axis=0), omega.max(axis=0)
     spread = 0.2 * (high - low)
     for _ in range(steps):
@@ -382,8 +474,38 @@ def tune_filter(
         center = barycenter(etas, costs)
     center_cost, matrices = scorer.score(center[None])
     best.offer(center[None], center_cost, matrices)
-    A, B, C = best.matrices
+    A, B, C = best.matrices[:3]
+    D = best.matrices[3] if len(best.matrices) == 4 else None
     return TuningResult(
         eta=best.eta, J=best.J, barycenter=center, J_barycenter=float(center_cost[0]),
-        J_grid_best=grid_best, evaluations=scorer.evaluations - start, A=A, B=B, C=C,
+        J_grid_best=grid_best, evaluations=scorer.evaluations - start, A=A, B=B, C=C, D=D,
+    )
+
+
+def _spacing(values: np.ndarray) -> float:
+    unique = np.unique(values)
+    return float(np.median(np.diff(unique))) if unique.size > 1 else 0.1 * max(abs(unique[0]), 1e-3)
+
+
+def _zoom(
+    scorer: FilterScorer, omega: np.ndarray, best: _Tracker, center: np.ndarray,
+    grid_best: float, steps: int, start: int,
+) -> TuningResult:
+    """Coarse-to-fine search in ``(log wc, zeta)`` from the best grid point."""
+    low = np.array([np.log(omega[:, 0].min()), omega[:, 1].min()])
+    high = np.array([np.log(omega[:, 0].max()), omega[:, 1].max()])
+    step = 0.5 * np.array([_spacing(np.log(omega[:, 0])), _spacing(omega[:, 1])])
+    offsets = np.array([(a, b) for a in (-1, 0, 1) for b in (-1, 0, 1) if (a, b) != (0, 0)], float)
+    for _ in range(steps):
+        here = np.array([np.log(best.eta[0]), best.eta[1]])
+        points = np.unique(np.clip(here + offsets * step, low, high), axis=0)
+        etas = np.column_stack([np.exp(points[:, 0]), points[:, 1]])
+        costs, matrices = scorer.score(etas)
+        best.offer(etas, costs, matrices)
+        step = step / 2
+    A, B, C = best.matrices[:3]
+    D = best.matrices[3] if len(best.matrices) == 4 else None
+    return TuningResult(
+        eta=best.eta, J=best.J, barycenter=center, J_barycenter=np.nan, J_grid_best=grid_best,
+        evaluations=scorer.evaluations - start, A=A, B=B, C=C, D=D,
     )
