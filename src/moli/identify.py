@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Callable
 
 import numpy as np
@@ -14,8 +14,10 @@ from .errors import DataError, OptionError
 from .estimation import check_sample_count
 from .model import StateSpaceModel
 from .selection import PathStep, StructureSearch, greedy_path, select_order
-from .tuning import TUNING_METHODS, check_omega, default_omega
-from .validation import X0_CHOICES
+from .tuning import FEEDTHROUGH_CHOICES, TUNING_METHODS, check_omega, default_omega
+from .refine import MAX_RADIUS
+from .refine import refine as refine_model
+from .validation import X0_CHOICES, compare
 
 # Share of the record held out for the order rule when no validation data are given.
 HOLDOUT_FRACTION = 0.3
@@ -71,6 +73,11 @@ class IdentificationResult:
             f"estimation: {self.estimation.N} samples; validation: {self.validation.N} samples "
             f"({self.validation_source})",
             f"VAF: validation, simulation from {self.options['x0']} initial state, percent",
+            f"options: preset {self.options.get('preset', 'paper')}, tuning "
+            f"{self.options['tuning']}, s = {self.options['s']:g}, feedthrough "
+            f"{self.options.get('feedthrough', False)}, max pole radius "
+            f"{self.options.get('max_radius') or 'none'}, refinement "
+            f"{self.options.get('refine', 'none')}",
             head,
         ]
         for i, st in enumerate(self.path):
@@ -94,6 +101,50 @@ def _default_nmax(p: int) -> int:
     return max(10, p + 4)
 
 
+PRESETS: dict[str, dict[str, Any]] = {
+    # default: grid barycenter and per-output feedthrough where the estimation data
+    # call for it (chosen on the 11 evaporator windows, docs/benchmarks.md)
+    "improved": {"tuning": "grid", "s": 2.0, "feedthrough": "auto", "max_radius": None,
+                 "criterion_x0": "zero", "refine": False},
+    # improved, plus filter candidates with modes slower than a tenth of the estimation
+    # record ruled out, and wider root spacing: for plants known to be that fast
+    "bounded": {"tuning": "grid", "s": 3.0, "feedthrough": "auto", "max_radius": "auto",
+                "criterion_x0": "zero", "refine": False},
+    # the paper's MOLI-ZOFT: randomized barycenter, s = 2, no feedthrough, J alone
+    "paper": {"tuning": "random", "s": 2.0, "feedthrough": False, "max_radius": None,
+              "criterion_x0": "zero", "refine": False},
+}
+REFINE_CHOICES = ("none", "selected", "path")
+# "auto" stability bound: a mode whose time constant exceeds a tenth of the estimation
+# record (radius exp(-10/N)) cannot be told from drift in that record.
+AUTO_RADIUS_SPAN = 10.0
+
+
+def _resolve(preset: str, given: dict[str, Any]) -> dict[str, Any]:
+    if preset not in PRESETS:
+        raise OptionError(f"preset must be one of {tuple(PRESETS)}, got {preset!r}")
+    chosen = dict(PRESETS[preset])
+    chosen.update({k: v for k, v in given.items() if v is not None})
+    if chosen["tuning"] not in TUNING_METHODS:
+        raise OptionError(f"tuning must be one of {TUNING_METHODS}, got {chosen['tuning']!r}")
+    if chosen["criterion_x0"] not in X0_CHOICES:
+        raise OptionError(f"criterion_x0 must be one of {X0_CHOICES}, got {chosen['criterion_x0']!r}")
+    refine_ = chosen["refine"]
+    if refine_ is True:
+        refine_ = "selected"
+    elif refine_ is False:
+        refine_ = "none"
+    if refine_ not in REFINE_CHOICES:
+        raise OptionError(f"refine must be True, False or one of {REFINE_CHOICES}, got {refine_!r}")
+    chosen["refine"] = refine_
+    radius = chosen["max_radius"]
+    if not (radius is None or radius == "auto" or (isinstance(radius, (int, float)) and 0 < radius <= 1)):
+        raise OptionError(f"max_radius must be None, 'auto' or a number in (0, 1], got {radius!r}")
+    if not any(chosen["feedthrough"] is v or chosen["feedthrough"] == "auto" for v in (True, False)):
+        raise OptionError(f"feedthrough must be one of {FEEDTHROUGH_CHOICES}, got {chosen['feedthrough']!r}")
+    return chosen
+
+
 def identify(
     data: IOData,
     validation: IOData | None = None,
@@ -101,9 +152,16 @@ def identify(
     nmax: int | None = None,
     omega: object | None = None,
     seed: int = 0,
-    tuning: str = "random",
+    preset: str = "improved",
+    tuning: str | None = None,
     iterations: int = 5,
-    s: float = 2.0,
+    s: float | None = None,
+    feedthrough: bool | None = None,
+    max_radius: float | str | None = None,
+    criterion_x0: str | None = None,
+    refine: bool | str | None = None,
+    refine_iterations: int = 10,
+    refine_ridge: float = 1.0,
     center: bool = True,
     x0: str = "zero",
     order_tolerance: float = 1.0,
@@ -126,12 +184,41 @@ def identify(
         :func:`moli.tuning.default_omega` (the paper's grid scaled to ``Ts``).
     seed : int, default 0
         Seed of the randomized filter search.
-    tuning : {"random", "grid"}
-        Filter search: the paper's randomized barycenter or one grid barycenter.
+    preset : {"improved", "bounded", "paper"}
+        Defaults of the options below that are left as None. ``"improved"``: grid
+        barycenter, ``s = 2``, ``feedthrough="auto"``, no refinement. ``"bounded"``:
+        as improved with ``s = 3`` and ``max_radius="auto"``, for plants whose time
+        constants are well below a tenth of the estimation record (it rules out the
+        slow, nearly unstable models that fit the estimation record's drift).
+        ``"paper"``: the paper's MOLI-ZOFT (randomized barycenter, ``s = 2``, no
+        feedthrough, J alone, no refinement).
+    tuning : {"grid", "random", "zoom"}, optional
+        Filter search (see :func:`moli.tuning.tune_filter`).
     iterations : int, default 5
-        Steps of the randomized filter search.
-    s : float, default 2.0
+        Steps of the randomized or zoom filter search.
+    s : float, optional
         Root spacing factor of the filter polynomial.
+    feedthrough : {True, False, "auto"}, optional
+        Estimate a direct feedthrough ``D`` (the current inputs join the regressors).
+        ``"auto"`` keeps it per output only where a nested F-test on the estimation
+        data finds it significant (level 0.001); elsewhere ``D`` is exactly zero.
+    max_radius : float, "auto" or None, optional
+        Filter candidates whose model has a pole of this modulus or more score the
+        worst J, so neither tuning nor the path prefers them. ``"auto"``:
+        ``exp(-10/N)`` for ``N`` estimation samples (time constants up to a tenth
+        of the record); None: the paper's J alone.
+    criterion_x0 : {"zero", "estimate"}, optional
+        Initial state of the estimation-data simulations behind J.
+    refine : bool or {"none", "selected", "path"}, optional
+        Output-error refinement (:func:`moli.refine.refine`) on the estimation data,
+        with the initial state estimated jointly and poles kept inside
+        ``max_radius`` (or ``1 - 1e-3``): of the selected model only (``True`` or
+        ``"selected"``), or of every path model before the order rule (``"path"``).
+    refine_iterations : int, default 10
+        Most Levenberg-Marquardt steps of the refinement.
+    refine_ridge : float, default 1.0
+        Penalty of the refinement toward the MOLI estimate, relative to each
+        parameter's curvature.
     center : bool, default True
         Remove the estimation record's means from both records (the model stores them).
     x0 : {"zero", "estimate"}
@@ -152,16 +239,22 @@ def identify(
     >>> result = moli.identify(est, val, nmax=6)
     >>> result.selected.order <= 6
     True
+    >>> paper = moli.identify(est, val, nmax=6, preset="paper")
+    >>> paper.options["feedthrough"]
+    False
     """
     if unknown:
         raise OptionError(
-            f"unknown option(s) {sorted(unknown)}; identify accepts nmax, omega, seed, tuning, "
-            "iterations, s, center, x0, order_tolerance, progress"
+            f"unknown option(s) {sorted(unknown)}; identify accepts nmax, omega, seed, preset, "
+            "tuning, iterations, s, feedthrough, max_radius, criterion_x0, refine, "
+            "refine_iterations, refine_ridge, center, x0, order_tolerance, progress"
         )
+    chosen = _resolve(preset, {"tuning": tuning, "s": s, "feedthrough": feedthrough,
+                               "max_radius": max_radius, "criterion_x0": criterion_x0,
+                               "refine": refine})
+    tuning, s = chosen["tuning"], float(chosen["s"])
     if not isinstance(data, IOData):
         raise DataError(f"data must be an IOData, got {type(data).__name__}")
-    if tuning not in TUNING_METHODS:
-        raise OptionError(f"tuning must be one of {TUNING_METHODS}, got {tuning!r}")
     if x0 not in X0_CHOICES:
         raise OptionError(f"x0 must be one of {X0_CHOICES}, got {x0!r}")
     if validation is None:
@@ -184,11 +277,20 @@ def identify(
     if int(nmax) != nmax or nmax < p:
         raise OptionError(f"nmax must be an integer >= p = {p}, got {nmax!r}")
     grid = default_omega(estimation.Ts) if omega is None else check_omega(omega)
-    search = StructureSearch(estimation, validation, grid, tuning, iterations, s, int(seed), x0)
+    radius = chosen["max_radius"]
+    if radius == "auto":
+        radius = float(np.exp(-AUTO_RADIUS_SPAN / estimation.N))
+    search = StructureSearch(
+        estimation, validation, grid, tuning, iterations, s, int(seed), x0,
+        chosen["criterion_x0"], chosen["feedthrough"], radius,
+    )
     check_sample_count(estimation.N, (1,) * p, estimation.m)
-    options = {"nmax": int(nmax), "omega": grid.tolist(), "seed": int(seed), "tuning": tuning,
-               "iterations": iterations, "s": s, "center": center, "x0": x0,
-               "order_tolerance": order_tolerance}
+    options = {"nmax": int(nmax), "omega": grid.tolist(), "seed": int(seed), "preset": preset,
+               "tuning": tuning, "iterations": iterations, "s": s,
+               "feedthrough": chosen["feedthrough"], "max_radius": radius,
+               "criterion_x0": chosen["criterion_x0"], "refine": chosen["refine"],
+               "refine_iterations": refine_iterations, "refine_ridge": refine_ridge,
+               "center": center, "x0": x0, "order_tolerance": order_tolerance}
     start = time.perf_counter()
     path: list[PathStep] = []
     interrupted = False
@@ -207,11 +309,25 @@ def identify(
             if not path:
                 raise
             interrupted = True
-    chosen = select_order(path, order_tolerance)
-    model = path[chosen].model
+    bound = MAX_RADIUS if radius is None else min(radius, MAX_RADIUS)
+
+    def refined(step: PathStep) -> PathStep:
+        started = time.perf_counter()
+        result = refine_model(step.model, estimation, iterations=refine_iterations,
+                              ridge=refine_ridge, max_radius=bound)
+        vaf = compare(result.model, validation, x0).vaf
+        return replace(step, model=result.model, vaf=vaf,
+                       seconds=step.seconds + time.perf_counter() - started)
+
+    if chosen["refine"] == "path" and not interrupted:
+        path[:] = [refined(st) for st in path]
+    selected = select_order(path, order_tolerance)
+    if chosen["refine"] == "selected":
+        path[selected] = refined(path[selected])
+    model = path[selected].model
     model.warn_if_unstable(stacklevel=2)
     return IdentificationResult(
-        model=model, path=path, selected_index=chosen, estimation=estimation,
+        model=model, path=path, selected_index=selected, estimation=estimation,
         validation=validation, validation_source=source, options=options,
         seconds=time.perf_counter() - start, interrupted=interrupted,
     )

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from typing import Sequence
 
 import numpy as np
+import scipy.stats
 
 from .errors import OptionError
 from .estimation import filtered_regressors, fit_batch, realize, solve_batch
@@ -21,6 +22,10 @@ from .structure import Indices
 from .validation import X0_CHOICES
 
 TUNING_METHODS = ("grid", "random", "zoom")
+FEEDTHROUGH_CHOICES = (False, True, "auto")
+# Significance level of the "auto" feedthrough test. Strict, because the equation
+# errors are coloured and the nominal F distribution then overstates significance.
+FEEDTHROUGH_LEVEL = 1e-3
 # The paper's weight: mu = 40 / min J, i.e. a candidate whose J is 10 % above the
 # best weighs exp(-4) ~ 2 % of it.
 MU_SCALE = 40.0
@@ -102,12 +107,19 @@ class RegressionCache:
         Estimation outputs then inputs (centred).
     p : int
         Number of outputs.
+    feedthrough : {False, True, "auto"}
+        Add the current inputs to every output's regressors (direct feedthrough);
+        ``"auto"`` keeps them for an output only where a nested F-test on the
+        estimation data finds them significant at level :data:`FEEDTHROUGH_LEVEL`
+        (otherwise that output's feedthrough is exactly zero).
     """
 
-    def __init__(self, z: np.ndarray, p: int, feedthrough: bool = False) -> None:
+    def __init__(self, z: np.ndarray, p: int, feedthrough: bool | str = False) -> None:
+        if feedthrough not in FEEDTHROUGH_CHOICES:
+            raise OptionError(f"feedthrough must be one of {FEEDTHROUGH_CHOICES}, got {feedthrough!r}")
         self.z = z
         self.p = p
-        self.feedthrough = bool(feedthrough)
+        self.feedthrough = feedthrough
         # columns appended to xi: the outputs, and the inputs when they feed through
         self.extra = z.shape[1] if feedthrough else p
         self._factors: dict[bytes, np.ndarray] = {}
@@ -185,13 +197,9 @@ class RegressionCache:
                     M, b = _small_problem(factors[r], alphas[r], divisors_[r][j], c, self.p, j, extra_u)
                     small.append(M)
                     rhs.append(b)
-                rows = {M.shape[0] for M in small}
-                if len(rows) == 1 and rows.pop() >= small[0].shape[1]:
-                    theta, cnd = solve_batch(np.stack(small), np.stack(rhs))
-                else:  # short records: fall back to one problem at a time
-                    pairs = [solve_batch(M[None], b[None]) for M, b in zip(small, rhs)]
-                    theta = np.concatenate([t for t, _ in pairs])
-                    cnd = np.concatenate([k for _, k in pairs])
+                theta, cnd = _solve_all(small, rhs)
+                if self.feedthrough == "auto":
+                    theta, cnd = self._test_feedthrough(small, rhs, theta, cnd, alphas, missing)
                 for i, r in enumerate(missing):
                     self._thetas[(keys[r], j, l)] = (theta[i], float(cnd[i]))
                 self.solves += len(missing)
@@ -200,6 +208,43 @@ class RegressionCache:
                 cond[r] = max(cond[r], cr)
             thetas.append(out)
         return thetas, cond
+
+
+    def _test_feedthrough(
+        self, small: list[np.ndarray], rhs: list[np.ndarray], theta: np.ndarray, cond: np.ndarray,
+        alphas: Sequence[np.ndarray], which: list[int],
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Keep each output's feedthrough only where an F-test on the estimation data asks for it.
+
+        ``RSS`` of the reduced problem equals that of the full one (``|X v| = |R v|``).
+        The nested test compares the fits with and without the ``m`` current inputs;
+        the level :data:`FEEDTHROUGH_LEVEL` is strict because the residuals are coloured.
+        """
+        m = self.z.shape[1] - self.p
+        without = [M[:, :-m] for M in small]
+        theta0, cond0 = _solve_all(without, rhs)
+        for i, (M, b) in enumerate(zip(small, rhs)):
+            rss1 = float(np.sum((M @ theta[i] - b) ** 2))
+            rss0 = float(np.sum((without[i] @ theta0[i] - b) ** 2))
+            dof = self.z.shape[0] - (alphas[which[i]].size - 1) - M.shape[1]
+            if dof <= 0 or rss1 <= 0:
+                continue
+            statistic = (rss0 - rss1) / m / (rss1 / dof)
+            if scipy.stats.f.sf(statistic, m, dof) > FEEDTHROUGH_LEVEL:
+                theta[i, :-m] = theta0[i]
+                theta[i, -m:] = 0.0
+                cond[i] = cond0[i]
+        return theta, cond
+
+
+def _solve_all(small: list[np.ndarray], rhs: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`solve_batch` over reduced problems (stacked when their shapes agree)."""
+    rows = {M.shape[0] for M in small}
+    if len(rows) == 1 and rows.pop() >= small[0].shape[1]:
+        return solve_batch(np.stack(small), np.stack(rhs))
+    # short records: one problem at a time
+    pairs = [solve_batch(M[None], b[None]) for M, b in zip(small, rhs)]
+    return np.concatenate([t for t, _ in pairs]), np.concatenate([k for _, k in pairs])
 
 
 def _quotient_map(alpha: np.ndarray, alpha_j: np.ndarray) -> np.ndarray:
