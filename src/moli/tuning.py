@@ -8,10 +8,12 @@ batches (one least-squares batch per output, one batched simulation).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 from typing import Sequence
 
 import numpy as np
+import scipy.linalg
 import scipy.stats
 
 from .errors import OptionError
@@ -197,9 +199,10 @@ class RegressionCache:
                     M, b = _small_problem(factors[r], alphas[r], divisors_[r][j], c, self.p, j, extra_u)
                     small.append(M)
                     rhs.append(b)
-                theta, cnd = _solve_all(small, rhs)
                 if self.feedthrough == "auto":
-                    theta, cnd = self._test_feedthrough(small, rhs, theta, cnd, alphas, missing)
+                    theta, cnd = self._solve_tested(small, rhs, alphas, missing)
+                else:
+                    theta, cnd = _solve_all(small, rhs)
                 for i, r in enumerate(missing):
                     self._thetas[(keys[r], j, l)] = (theta[i], float(cnd[i]))
                 self.solves += len(missing)
@@ -210,31 +213,57 @@ class RegressionCache:
         return thetas, cond
 
 
-    def _test_feedthrough(
-        self, small: list[np.ndarray], rhs: list[np.ndarray], theta: np.ndarray, cond: np.ndarray,
-        alphas: Sequence[np.ndarray], which: list[int],
+    def _solve_tested(
+        self, small: list[np.ndarray], rhs: list[np.ndarray], alphas: Sequence[np.ndarray],
+        which: list[int],
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Keep each output's feedthrough only where an F-test on the estimation data asks for it.
+        """Solve with feedthrough, and keep it only where an F-test on the estimation data asks.
 
-        ``RSS`` of the reduced problem equals that of the full one (``|X v| = |R v|``).
-        The nested test compares the fits with and without the ``m`` current inputs;
-        the level :data:`FEEDTHROUGH_LEVEL` is strict because the residuals are coloured.
+        The residual sums of squares of the reduced problems equal those of the full
+        ones (``|X v| = |R v|``). With the ``m`` feedthrough columns last, one
+        triangular factor of the column-scaled ``[M, b]`` gives both nested fits: the
+        problem without feedthrough is its leading block. The level
+        :data:`FEEDTHROUGH_LEVEL` is strict because the residuals are coloured.
         """
         m = self.z.shape[1] - self.p
-        without = [M[:, :-m] for M in small]
-        theta0, cond0 = _solve_all(without, rhs)
-        for i, (M, b) in enumerate(zip(small, rhs)):
-            rss1 = float(np.sum((M @ theta[i] - b) ** 2))
-            rss0 = float(np.sum((without[i] @ theta0[i] - b) ** 2))
-            dof = self.z.shape[0] - (alphas[which[i]].size - 1) - M.shape[1]
-            if dof <= 0 or rss1 <= 0:
-                continue
+        shapes = {M.shape for M in small}
+        q1 = small[0].shape[1]
+        dof = self.z.shape[0] - (alphas[which[0]].size - 1) - q1
+        if len(shapes) != 1 or small[0].shape[0] <= q1 or dof <= 0:
+            return _solve_all(small, rhs)           # short records: keep the feedthrough
+        q0 = q1 - m
+        M = np.stack(small)
+        norms = np.linalg.norm(M, axis=1, keepdims=True)
+        norms[norms == 0] = 1.0
+        r = np.linalg.qr(np.concatenate([M / norms, np.stack(rhs)[..., None]], axis=2), mode="r")
+        rss1 = r[:, q1, q1] ** 2
+        rss0 = np.sum(r[:, q0 : q1 + 1, q1] ** 2, axis=1)
+        with np.errstate(divide="ignore", invalid="ignore"):
             statistic = (rss0 - rss1) / m / (rss1 / dof)
-            if scipy.stats.f.sf(statistic, m, dof) > FEEDTHROUGH_LEVEL:
-                theta[i, :-m] = theta0[i]
-                theta[i, -m:] = 0.0
-                cond[i] = cond0[i]
-        return theta, cond
+        keep = ~(statistic <= _f_critical(m, dof))    # NaN (exact fit) keeps the feedthrough
+        size = np.where(keep, q1, q0)
+        theta = np.zeros((len(small), q1))
+        cond = np.empty(len(small))
+        for k in (q0, q1):
+            rows = np.flatnonzero(size == k)
+            if rows.size == 0:
+                continue
+            tri = r[rows, :k, :k]
+            diag = np.abs(np.diagonal(tri, axis1=1, axis2=2))
+            with np.errstate(divide="ignore"):
+                cond[rows] = diag.max(axis=1) / diag.min(axis=1)
+            good = cond[rows] < 1e13
+            if good.any():
+                theta[rows[good], :k] = np.linalg.solve(tri[good], r[rows[good], :k, q1][..., None])[..., 0]
+            for i in rows[~good]:   # rank deficient: minimum-norm solution
+                theta[i, :k] = scipy.linalg.lstsq(M[i, :, :k] / norms[i, :, :k], rhs[i])[0]
+        return theta / norms[:, 0, :], cond
+
+
+@functools.lru_cache(maxsize=None)
+def _f_critical(m: int, dof: int) -> float:
+    """Critical value of the F(m, dof) distribution at level :data:`FEEDTHROUGH_LEVEL`."""
+    return float(scipy.stats.f.isf(FEEDTHROUGH_LEVEL, m, dof))
 
 
 def _solve_all(small: list[np.ndarray], rhs: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
