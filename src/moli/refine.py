@@ -322,11 +322,14 @@ def refine(
                 break
     form_end, x0 = problem.unpack(theta)
     A, B, C = form_end.matrices()
+    F = form_end.F
+    if accepted == 0:  # nothing accepted: keep the start's matrices bit for bit
+        A, B, C, F = model.A, model.B, model.C, model.D
     info = dict(model.info)
     info.update({"refined": True, "refine_iterations": accepted, "refine_ridge": ridge,
                  "refine_cost_start": cost_start, "refine_cost": cost})
     refined = StateSpaceModel(
-        A, B, C, form_end.F, Ts=model.Ts, output_names=model.output_names, input_names=model.input_names,
+        A, B, C, F, Ts=model.Ts, output_names=model.output_names, input_names=model.input_names,
         indices=model.indices, alpha=model.alpha, y_offset=model.y_offset,
         u_offset=model.u_offset, info=info,
     )

@@ -332,6 +332,27 @@ def _small_problem(
     return np.concatenate(parts, axis=1), factor[:, c * nbar + j]
 
 
+def _initial_response(A: np.ndarray, C: np.ndarray, error: np.ndarray) -> np.ndarray:
+    """Least-squares fit of the free responses ``C A^k x0`` to ``error``, per model.
+
+    Parameters: ``A`` (R, n, n), ``C`` (R, p, n), ``error`` (R, N, p). Returns (R, N, p);
+    zero where the fit is not finite (unstable models).
+    """
+    R, n, _ = A.shape
+    N, p = error.shape[1:]
+    out = np.zeros(error.shape)
+    with np.errstate(all="ignore"):
+        free = simulate_batch(
+            np.repeat(A, n, axis=0), np.zeros((R * n, n, 1)), np.repeat(C, n, axis=0),
+            np.zeros((N, 1)), x0=np.tile(np.eye(n), (R, 1)),
+        ).reshape(R, n, N * p).transpose(0, 2, 1)                       # (R, N p, n)
+        ok = np.all(np.isfinite(free), axis=(1, 2)) & np.all(np.isfinite(error), axis=(1, 2))
+        for r in np.flatnonzero(ok):
+            x0 = np.linalg.lstsq(free[r], error[r].reshape(-1), rcond=None)[0]
+            out[r] = (free[r] @ x0).reshape(N, p)
+    return out
+
+
 def _realize_feedthrough(
     thetas: Sequence[np.ndarray], parts: Sequence[Sequence[np.ndarray]], indices: Indices, m: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

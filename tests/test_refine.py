@@ -1,0 +1,128 @@
+"""Output-error refinement: exactness, monotone cost, stability, analytic Jacobian."""
+
+import numpy as np
+import pytest
+
+import moli
+from moli.errors import OptionError
+from moli.refine import _Problem, observer_form, refine
+
+
+def _plant(seed=0):
+    rng = np.random.default_rng(seed)
+    A = np.array([[0.9, 0.2, 0.0], [-0.2, 0.9, 0.1], [0.0, 0.0, 0.6]])
+    return A, rng.standard_normal((3, 2)), rng.standard_normal((2, 3))
+
+
+def _record(D=None, noise=0.0, N=400, seed=1, x0=None):
+    A, B, C = _plant()
+    rng = np.random.default_rng(seed)
+    u = rng.standard_normal((N, 2))
+    y = moli.StateSpaceModel(A, B, C, D).simulate(u, x0)
+    return moli.IOData(y + noise * rng.standard_normal(y.shape), u)
+
+
+def _start(data, feedthrough=False):
+    search = moli.selection.StructureSearch(
+        data, data, moli.tuning.default_omega(), "grid", feedthrough=feedthrough)
+    return search.fit((2, 1)).model
+
+
+def _independent_cost(model, data, x0):
+    """Sum over outputs of |y - yhat|^2 / |y|^2, simulated by the model itself."""
+    yhat = model.simulate(data.u, x0)
+    return float(np.sum(np.sum((data.y - yhat) ** 2, axis=0) / np.sum(data.y ** 2, axis=0)))
+
+
+def test_noise_free_data_keep_the_exact_model():
+    data = _record()
+    start = _start(data)
+    result = refine(start, data)
+    # MOLI is exact on noise-free data, so the simulation error is at round-off and no
+    # step can lower it: Markov parameters stay those of the plant
+    assert result.cost_start < 1e-20
+    truth = moli.StateSpaceModel(*_plant()).markov(15)
+    np.testing.assert_allclose(result.model.markov(15), truth, atol=1e-8)
+
+
+def test_noise_free_feedthrough_model_is_kept():
+    D = np.array([[0.5, 0.0], [0.0, -0.3]])
+    data = _record(D=D)
+    result = refine(_start(data, feedthrough=True), data)
+    np.testing.assert_allclose(result.model.D, D, atol=1e-8)
+    np.testing.assert_allclose(result.model.markov(10), moli.StateSpaceModel(*_plant(), D).markov(10),
+                               atol=1e-8)
+
+
+@pytest.mark.parametrize("ridge", [0.0, 1.0])
+def test_cost_never_increases_and_is_what_it_says(ridge):
+    data = _record(noise=0.3, x0=np.array([1.0, -1.0, 0.5]))
+    start = _start(data)
+    result = refine(start, data, iterations=8, ridge=ridge)
+    assert result.cost <= result.cost_start
+    # the reported data term matches an independent simulation from the returned x0
+    # (with a ridge the penalty adds on top, so the data term is at most the cost)
+    data_term = _independent_cost(result.model, data, result.x0)
+    if ridge == 0.0:
+        assert data_term == pytest.approx(result.cost, rel=1e-9)
+    else:
+        assert data_term <= result.cost * (1 + 1e-9)
+    # the start with its best initial state: what refinement starts from
+    assert _independent_cost(start, data, None) >= result.cost_start - 1e-12
+
+
+def test_stability_radius_is_kept():
+    data = _record(noise=0.5, seed=3)
+    start = _start(data)
+    radius = np.max(np.abs(start.poles()))
+    bound = radius + 0.01
+    result = refine(start, data, iterations=20, max_radius=bound)
+    assert np.max(np.abs(result.model.poles())) < bound
+
+
+def test_unstable_start_is_returned_unchanged():
+    data = _record(noise=0.1)
+    start = _start(data)
+    result = refine(start, data, max_radius=0.5)
+    assert result.iterations == 0
+    np.testing.assert_array_equal(result.model.A, start.A)
+
+
+def test_analytic_jacobian_matches_finite_differences():
+    data = _record(D=np.array([[0.2, 0.0], [0.1, 0.3]]), noise=0.2)
+    start = _start(data, feedthrough=True)
+    problem = _Problem(observer_form(start), data.u, data.y, fit_x0=True)
+    theta = problem.pack(observer_form(start), np.array([0.3, -0.2, 0.1]))
+    yhat, _, _ = problem.simulate(theta)
+    analytic = problem.jacobian(theta, yhat)
+    numeric = np.empty_like(analytic)
+    for k in range(theta.size):
+        step = np.zeros(theta.size)
+        step[k] = 1e-6 * max(1.0, abs(theta[k]))
+        plus, _, _ = problem.simulate(theta + step)
+        minus, _, _ = problem.simulate(theta - step)
+        numeric[:, k] = -(problem.residual(plus) - problem.residual(minus)) / (2 * step[k])
+    # central differences: truncation O(h^2) and round-off O(eps/h) give about 1e-9 relative
+    assert np.max(np.abs(analytic - numeric)) <= 1e-6 * np.max(np.abs(numeric))
+
+
+def test_bad_options_raise():
+    data = _record(noise=0.1)
+    start = _start(data)
+    with pytest.raises(OptionError, match="iterations"):
+        refine(start, data, iterations=-1)
+    with pytest.raises(OptionError, match="ridge"):
+        refine(start, data, ridge=-1.0)
+    with pytest.raises(OptionError, match="max_radius"):
+        refine(start, data, max_radius=1.5)
+
+
+def test_identify_refines_the_selected_model():
+    est, val = moli.example_data(N=600, seed=1).split(400)
+    plain = moli.identify(est, val, nmax=5)
+    refined = moli.identify(est, val, nmax=5, refine=True)
+    assert refined.options["refine"] == "selected"
+    assert refined.model.info.get("refined") is True
+    assert refined.model.info["refine_cost"] <= refined.model.info["refine_cost_start"]
+    # the path up to the order rule is the same search
+    assert [st.indices for st in refined.path] == [st.indices for st in plain.path]

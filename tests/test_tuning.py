@@ -1,0 +1,136 @@
+"""Filter scoring: shared factorizations, feedthrough, stability bound, zoom search, presets."""
+
+import numpy as np
+import pytest
+
+import moli
+from moli.errors import OptionError
+from moli.tuning import FilterScorer, RegressionCache, default_omega, grid, tune_filter
+
+
+def _random_system(n, p, m, seed, radius=0.9):
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((n, n))
+    A *= radius / np.max(np.abs(np.linalg.eigvals(A)))
+    return A, rng.standard_normal((n, m)), rng.standard_normal((p, n))
+
+
+def _data(A, B, C, D=None, N=400, seed=1, noise=0.0, x0=None):
+    rng = np.random.default_rng(seed)
+    u = rng.standard_normal((N, B.shape[1]))
+    y = moli.StateSpaceModel(A, B, C, D).simulate(u, x0)
+    y = y + noise * rng.standard_normal(y.shape)
+    return np.concatenate([y, u], axis=1)
+
+
+@pytest.mark.parametrize("indices", [(1, 1), (2, 1), (1, 3), (3, 2), (2, 4)])
+def test_shared_factors_match_direct_estimation(indices):
+    z = _data(*_random_system(4, 2, 2, seed=3), noise=0.1)
+    omega = default_omega()
+    direct = FilterScorer(z, indices, 1.0, 2.0)
+    shared = FilterScorer(z, indices, 1.0, 2.0, RegressionCache(z, 2))
+    J1, (A1, B1, C1) = direct.score(omega)
+    J2, (A2, B2, C2) = shared.score(omega)
+    # same least-squares problems through R instead of X: agreement to round-off, amplified
+    # by the condition of the regressors (below 1e6 here), so 1e-8 on O(1) quantities
+    np.testing.assert_allclose(J2, J1, atol=1e-8)
+    np.testing.assert_allclose(A2, A1, atol=1e-8)
+    np.testing.assert_allclose(B2, B1, atol=1e-8)
+    np.testing.assert_allclose(C2, C1, atol=1e-8)
+
+
+def test_feedthrough_is_recovered_exactly_on_noise_free_data():
+    A, B, C = _random_system(4, 2, 2, seed=5)
+    D = np.array([[0.7, -0.3], [0.0, 0.4]])
+    z = _data(A, B, C, D)
+    scorer = FilterScorer(z, (2, 2), 1.0, 2.0, RegressionCache(z, 2, feedthrough=True))
+    J, (Ah, Bh, Ch, Dh) = scorer.score(np.array([[0.5, 0.8], [1.2, 1.1]]))
+    # noise-free data, any valid filter: the fit is exact (residuals at round-off)
+    assert np.all(J < 1e-18)
+    np.testing.assert_allclose(Dh[0], D, atol=1e-9)
+    truth = moli.StateSpaceModel(A, B, C, D).markov(12)
+    fitted = moli.StateSpaceModel(Ah[1], Bh[1], Ch[1], Dh[1]).markov(12)
+    np.testing.assert_allclose(fitted, truth, atol=1e-8)
+
+
+def test_auto_feedthrough_drops_an_absent_one_and_keeps_a_present_one():
+    A, B, C = _random_system(4, 2, 2, seed=7)
+    eta = np.array([[0.5, 0.8]])
+    # strictly proper plant, small white output noise: no output passes the 0.1 % test
+    z = _data(A, B, C, noise=0.01, N=600)
+    _, mats = FilterScorer(z, (2, 2), 1.0, 2.0, RegressionCache(z, 2, "auto")).score(eta)
+    assert np.all(mats[3] == 0.0)
+    # a feedthrough of 0.5 on output 2 only is far above the noise
+    D = np.array([[0.0, 0.0], [0.5, 0.0]])
+    z = _data(A, B, C, D, noise=0.01, N=600)
+    _, mats = FilterScorer(z, (2, 2), 1.0, 2.0, RegressionCache(z, 2, "auto")).score(eta)
+    assert np.all(mats[3][0, 0] == 0.0)
+    # the estimate of the present entry is within a few noise-induced standard errors
+    assert mats[3][0, 1, 0] == pytest.approx(0.5, abs=0.05)
+
+
+def test_bad_feedthrough_choice_raises():
+    with pytest.raises(OptionError, match="feedthrough"):
+        RegressionCache(np.zeros((10, 2)), 1, feedthrough="sometimes")
+
+
+def test_stability_bound_gives_the_worst_score():
+    A, B, C = _random_system(2, 1, 1, seed=2, radius=0.9)
+    z = _data(A, B, C)
+    scorer = FilterScorer(z, (2,), 1.0, 2.0, RegressionCache(z, 1), max_radius=0.5)
+    J, (Ah, _, _) = scorer.score(default_omega())
+    # every exact fit has the plant's pole modulus 0.9 >= 0.5: all score J = 1
+    assert np.all(np.max(np.abs(np.linalg.eigvals(Ah)), axis=1) == pytest.approx(0.9))
+    assert np.all(J == 1.0)
+
+
+def test_initial_response_fits_a_free_response_exactly():
+    from moli.tuning import _initial_response
+
+    A, B, C = _random_system(3, 2, 1, seed=4, radius=0.95)
+    x0 = np.array([3.0, -2.0, 1.0])
+    free = moli.StateSpaceModel(A, B, C).simulate(np.zeros((200, 1)), x0)
+    # the free response lies in the span of the basis: least squares recovers it to round-off
+    np.testing.assert_allclose(_initial_response(A[None], C[None], free[None])[0], free, atol=1e-9)
+
+
+def test_estimated_initial_state_never_scores_worse():
+    A, B, C = _random_system(2, 1, 1, seed=4, radius=0.95)
+    z = _data(A, B, C, x0=np.array([3.0, -2.0]), noise=0.05)
+    omega = default_omega()
+    zero = FilterScorer(z, (2,), 1.0, 2.0, RegressionCache(z, 1)).score(omega)[0]
+    fitted = FilterScorer(z, (2,), 1.0, 2.0, RegressionCache(z, 1), x0="estimate").score(omega)[0]
+    # x0 = 0 is one of the initial states the least squares chooses from
+    assert np.all(fitted <= zero + 1e-12)
+    assert fitted.min() < zero.min()
+
+
+def test_zoom_never_ends_worse_than_the_grid():
+    z = _data(*_random_system(4, 2, 2, seed=8), noise=0.2)
+    scorer = FilterScorer(z, (2, 2), 1.0, 2.0, RegressionCache(z, 2))
+    omega = grid(np.geomspace(0.1, 1.0, 3), [0.6, 1.1])
+    result = tune_filter(scorer, omega, "zoom", iterations=3)
+    assert result.J <= result.J_grid_best
+    assert result.evaluations > len(omega)
+    # the chosen point stays inside omega's bounding box
+    assert omega[:, 0].min() - 1e-12 <= result.eta[0] <= omega[:, 0].max() + 1e-12
+    assert omega[:, 1].min() <= result.eta[1] <= omega[:, 1].max()
+
+
+def test_presets_and_their_errors():
+    est, val = moli.example_data(N=500, seed=2).split(350)
+    paper = moli.identify(est, val, nmax=4, preset="paper")
+    assert (paper.options["tuning"], paper.options["feedthrough"], paper.options["max_radius"]) == (
+        "random", False, None)
+    assert np.all(paper.model.D == 0.0)
+    bounded = moli.identify(est, val, nmax=4, preset="bounded")
+    # "auto" radius: time constants up to a tenth of the 350-sample record
+    assert bounded.options["max_radius"] == pytest.approx(np.exp(-10 / 350))
+    assert all(np.max(np.abs(st.model.poles())) < bounded.options["max_radius"] for st in bounded.path
+               if st.J < 1.0)
+    with pytest.raises(OptionError, match="preset"):
+        moli.identify(est, val, nmax=4, preset="fast")
+    with pytest.raises(OptionError, match="refine"):
+        moli.identify(est, val, nmax=4, refine="all")
+    with pytest.raises(OptionError, match="max_radius"):
+        moli.identify(est, val, nmax=4, max_radius=1.5)
