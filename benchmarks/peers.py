@@ -67,6 +67,7 @@ MOLI_METHODS = {
     "moli improved+refine": {"preset": "improved", "refine": "selected"},
 }
 TOLERANCE = 1.0
+NOTES_MARKER = "<!-- findings: kept when the tables above are regenerated -->"
 
 
 def order_rule(vafs: np.ndarray, tolerance: float = TOLERANCE) -> int:
@@ -324,6 +325,7 @@ def main() -> None:
     parser.add_argument("--out", default=None, help="write benchmarks.md and figures/ under this folder")
     parser.add_argument("--datasets", nargs="+", default=list(NMAX))
     parser.add_argument("--quick", action="store_true", help="skip PARSIM-K (slow)")
+    parser.add_argument("--json", default=None, help="also write every number to this JSON file")
     args = parser.parse_args()
     peers = pl.peer_fitters()
     if args.quick:
@@ -344,12 +346,18 @@ def main() -> None:
         a for a in sys.argv[1:] if not a.startswith("--data-dir"))
     text = markdown(results, methods, list(peers), command.strip())
     print(text)
+    if args.json:
+        Path(args.json).write_text(json.dumps(results, default=float))
     if args.out:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
-        (out / "benchmarks.md").write_text(text)
+        target = out / "benchmarks.md"
+        notes = ""
+        if target.exists() and NOTES_MARKER in target.read_text():
+            # hand-written findings below the marker survive a re-run
+            notes = target.read_text().split(NOTES_MARKER, 1)[1]
+        target.write_text(text + "\n" + NOTES_MARKER + notes)
         paths = figures(results, methods, out / "figures") if "evaporator" in args.datasets else []
-        (out / "figures" / "peers_results.json").write_text(json.dumps(results, default=float))
         print("wrote", out / "benchmarks.md", *paths)
 
 
