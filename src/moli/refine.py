@@ -248,7 +248,7 @@ def refine(
     >>> from moli.refine import refine
     >>> est, _ = moli.example_data(N=600, seed=1).split(400)
     >>> est = est.remove_means()
-    >>> start = moli.estimate(est, [2, 2], moli.filter_polynomial(0.5, 0.8, [2, 2]))
+    >>> start = moli.estimate(est, [2, 1, 1], moli.filter_polynomial(0.5, 0.8, [2, 1, 1]))
     >>> result = refine(start, est)
     >>> bool(result.cost <= result.cost_start)
     True
