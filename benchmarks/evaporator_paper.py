@@ -30,7 +30,7 @@ from daisy_data import load
 PAPER_OMEGA = moli.tuning.grid(np.array([0.02, 0.0355, 0.0631, 0.1122, 0.1995, 0.3548]) * np.pi, [0.6, 0.7, 1.1])
 PAPER_PATH = [(1, 2, 1), (1, 3, 1), (1, 4, 1), (1, 5, 1), (2, 5, 1), (3, 5, 1), (3, 6, 1), (4, 6, 1),
               (4, 7, 1), (4, 8, 1), (5, 8, 1), (6, 8, 1)]
-MODES = {"paper-faithful (random barycenter)": {"tuning": "random"}, "grid barycenter": {"tuning": "grid"}}
+MODES = {"paper-faithful (preset='paper': random barycenter)": {"preset": "paper"}, "default (preset='improved')": {}}
 
 
 def window(data: moli.IOData, k: int) -> tuple[moli.IOData, moli.IOData]:
@@ -80,7 +80,7 @@ def greedy_vs_exhaustive(data: moli.IOData) -> None:
     est, val = window(data, 0)
     est = est.remove_means()
     val = val.remove_means(est.y_offset, est.u_offset)
-    search = StructureSearch(est, val, PAPER_OMEGA, tuning="random")
+    search = StructureSearch(est, val, PAPER_OMEGA, tuning="random")  # the paper preset's search
     path = {st.order: st for st in greedy_path(search, 9)}
     found_vaf = found_j = 0
     for n in range(3, 10):

@@ -45,8 +45,8 @@ def greedy_speed() -> None:
     one_solve = best_of(lambda: np.linalg.lstsq(phi, target, rcond=None), 200)
     print("## greedy search n = 3..15, evaporator paper split, 18-point paper grid")
     print(f"one least-squares solve 500 x 21: {one_solve * 1e6:.0f} us")
-    for label, options in [("default", {}), ("paper-faithful random barycenter", {"tuning": "random"}),
-                           ("grid barycenter", {"tuning": "grid"})]:
+    for label, options in [("default (preset='improved')", {}), ("paper-faithful (preset='paper')", {"preset": "paper"}),
+                           ("paper with grid barycenter", {"preset": "paper", "tuning": "grid"})]:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", moli.UnstableModelWarning)
             seconds = best_of(lambda: moli.identify(est, val, nmax=15, omega=PAPER_OMEGA, **options), 3)

@@ -9,7 +9,7 @@ PAPER_OMEGA = moli.tuning.grid(np.array([0.02, 0.0355, 0.0631, 0.1122, 0.1995, 0
 
 def test_paper_path_start(evaporator):
     result = moli.identify(
-        evaporator[0:500], evaporator[500:1000], nmax=6, omega=PAPER_OMEGA, tuning="random"
+        evaporator[0:500], evaporator[500:1000], nmax=6, omega=PAPER_OMEGA, preset="paper"
     )
     # the paper's path: {1,2,1}, {1,3,1}, {1,4,1}, ...
     assert [st.indices for st in result.path[1:4]] == [(1, 2, 1), (1, 3, 1), (1, 4, 1)]

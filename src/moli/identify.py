@@ -65,14 +65,16 @@ class IdentificationResult:
     def summary(self) -> str:
         """A readable table of the greedy path and the selection."""
         names = self.estimation.output_names
-        head = f"{'n':>3}  {'indices':<16}{'J':>8}  " + "".join(f"{'VAF ' + nm:>11}" for nm in names)
+        # long channel names (e.g. DaISy's) would break the columns: number them and list them
+        head = f"{'n':>3}  {'indices':<16}{'J':>8}  " + "".join(f"{f'VAF y{i + 1}':>11}" for i in range(len(names)))
         head += f"{'mean VAF':>10}{'wc':>9}{'zeta':>7}{'stable':>8}{'sec':>8}"
         lines = [
             f"moli identification: {self.estimation.p} outputs, {self.estimation.m} inputs, "
             f"Ts = {self.estimation.Ts:g}",
             f"estimation: {self.estimation.N} samples; validation: {self.validation.N} samples "
             f"({self.validation_source})",
-            f"VAF: validation, simulation from {self.options['x0']} initial state, percent",
+            f"VAF: validation, simulation from {self.options['x0']} initial state, percent"
+            + "".join(f"; y{i + 1} = {nm}" for i, nm in enumerate(names) if nm != f"y{i + 1}"),
             f"options: preset {self.options.get('preset', 'paper')}, tuning "
             f"{self.options['tuning']}, s = {self.options['s']:g}, feedthrough "
             f"{self.options.get('feedthrough', False)}, max pole radius "
