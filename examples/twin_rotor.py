@@ -50,8 +50,10 @@ STEP_WINDOWS = [(0, 50, 250), (1, 250, 450), (0, 450, 650), (1, 650, 850)]
 def identify_rig(rig: TwinRotor, seed: int) -> tuple[moli.IOData, object]:
     """Run the 60 s experiment and identify on its first 15 s (validation: whole record)."""
     data = identification_experiment(rig, seed=seed)
+    # strictly proper model (feedthrough=False): the servo design needs D = 0
     result = moli.identify(
-        data[:ESTIMATION], validation=data, omega=OMEGA, nmax=NMAX, seed=seed, center=False
+        data[:ESTIMATION], validation=data, omega=OMEGA, nmax=NMAX, seed=seed, center=False,
+        feedthrough=False,
     )
     return data, result
 
