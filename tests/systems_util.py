@@ -17,3 +17,15 @@ def random_system(n: int, p: int, m: int, rng: np.random.Generator) -> moli.Stat
 def generic_indices(n: int, p: int) -> tuple[int, ...]:
     """ceil(n/p) for the first n mod p outputs, floor(n/p) for the rest (ALGORITHM.md §4)."""
     return tuple(n // p + (1 if j < n % p else 0) for j in range(p))
+
+
+def plant_record(N: int, noise: float, seed: int) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
+    """A random stable 6-state 3x3 plant (generic indices (2, 2, 2)) driven by white noise.
+
+    Returns ``(y, u, (A, B, C))`` with white output noise of standard deviation ``noise``.
+    """
+    rng = np.random.default_rng(seed)
+    plant = random_system(6, 3, 3, rng)
+    u = rng.standard_normal((N, 3))
+    y = plant.simulate(u)
+    return y + noise * rng.standard_normal(y.shape), u, (plant.A, plant.B, plant.C)

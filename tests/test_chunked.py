@@ -9,21 +9,15 @@ from moli.chunked import ChunkedEstimator
 from moli.errors import DataError, FilterError, OptionError, StructureError
 from moli.estimation import filtered_regressors, realize
 from moli.filters import divisors
-from moli.simulation import simulate_batch
+
+from systems_util import plant_record
 
 INDICES = (2, 2, 2)
 ALPHA = moli.filter_polynomial(0.5, 0.7, INDICES)
 
 
 def record(N, noise, seed=3):
-    """A random stable 6-state plant (generic indices (2, 2, 2)) driven by white noise."""
-    rng = np.random.default_rng(seed)
-    A = rng.standard_normal((6, 6))
-    A *= 0.9 / np.max(np.abs(np.linalg.eigvals(A)))
-    B, C = rng.standard_normal((6, 3)), rng.standard_normal((3, 6))
-    u = rng.standard_normal((N, 3))
-    y = simulate_batch(A[None], B[None], C[None], u)[0]
-    return y + noise * rng.standard_normal(y.shape), u, (A, B, C)
+    return plant_record(N, noise, seed)
 
 
 def whole_record_markov(y, u):

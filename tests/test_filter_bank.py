@@ -11,18 +11,14 @@ from moli.recursive import RecursiveMoli
 from moli.simulation import simulate_batch
 from moli.tuning import barycenter, grid
 
+from systems_util import plant_record
+
 INDICES = (2, 2, 2)
 OMEGA = grid([0.2, 0.5, 1.0], [0.7, 1.1])
 
 
 def record(N, seed=4):
-    rng = np.random.default_rng(seed)
-    A = rng.standard_normal((6, 6))
-    A *= 0.9 / np.max(np.abs(np.linalg.eigvals(A)))
-    B, C = rng.standard_normal((6, 3)), rng.standard_normal((3, 6))
-    u = rng.standard_normal((N, 3))
-    y = simulate_batch(A[None], B[None], C[None], u)[0]
-    return y + 0.05 * rng.standard_normal(y.shape), u
+    return plant_record(N, 0.05, seed)[:2]
 
 
 def alone(eta, y, u):
