@@ -3,9 +3,8 @@
 Run: python benchmarks/chunked_memory.py [samples]
 """
 
-import os
 
-os.environ["OPENBLAS_NUM_THREADS"] = "1"
+import single_thread  # noqa: F401  (before numpy: one BLAS thread)
 
 import resource
 import sys

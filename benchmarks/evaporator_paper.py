@@ -12,9 +12,8 @@ used only by the order rule.
 
 from __future__ import annotations
 
-import os
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+import single_thread  # noqa: F401  (before numpy: one BLAS thread)
 
 import argparse
 import time

@@ -16,11 +16,8 @@ data sets in ``benchmarks/peers.py`` are the check.
 
 from __future__ import annotations
 
-import os
 
-os.environ["OPENBLAS_NUM_THREADS"] = "1"
-os.environ["OMP_NUM_THREADS"] = "1"
-os.environ["MKL_NUM_THREADS"] = "1"
+import single_thread  # noqa: F401  (before numpy: one BLAS thread)
 
 import argparse  # noqa: E402
 import time  # noqa: E402

@@ -33,13 +33,8 @@ and validation simulation), one BLAS thread, all in this one process.
 
 from __future__ import annotations
 
-import os
 
-# One BLAS thread for every method, set before numpy is imported, so that timings
-# compare algorithms rather than thread pools.
-os.environ["OPENBLAS_NUM_THREADS"] = "1"
-os.environ["OMP_NUM_THREADS"] = "1"
-os.environ["MKL_NUM_THREADS"] = "1"
+import single_thread  # noqa: F401  (before numpy: one BLAS thread)
 
 import argparse  # noqa: E402
 import json  # noqa: E402

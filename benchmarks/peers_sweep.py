@@ -19,13 +19,8 @@ over the orders, and the cumulative wall-clock time of the estimation calls
 
 from __future__ import annotations
 
-import os
 
-# One BLAS thread for every peer, so that timings compare algorithms, not thread
-# pools; this must happen before numpy is imported.
-os.environ["OPENBLAS_NUM_THREADS"] = "1"
-os.environ["OMP_NUM_THREADS"] = "1"
-os.environ["MKL_NUM_THREADS"] = "1"
+import single_thread  # noqa: F401  (before numpy: one BLAS thread)
 
 import argparse  # noqa: E402
 import sys  # noqa: E402

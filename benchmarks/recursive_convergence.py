@@ -5,9 +5,8 @@ the whole-record least-squares solution (ALGORITHM.md section 3) on the same sam
 Run: python benchmarks/recursive_convergence.py
 """
 
-import os
 
-os.environ["OPENBLAS_NUM_THREADS"] = "1"
+import single_thread  # noqa: F401  (before numpy: one BLAS thread)
 
 import warnings
 

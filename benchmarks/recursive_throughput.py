@@ -4,9 +4,8 @@ Also checks the covariance over a long run: symmetric and positive definite.
 Run: python benchmarks/recursive_throughput.py [samples]
 """
 
-import os
 
-os.environ["OPENBLAS_NUM_THREADS"] = "1"
+import single_thread  # noqa: F401  (before numpy: one BLAS thread)
 
 import sys
 import time

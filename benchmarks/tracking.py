@@ -8,9 +8,8 @@ change until the mean VAF is back above TARGET and stays there.
 Run: python benchmarks/tracking.py
 """
 
-import os
 
-os.environ["OPENBLAS_NUM_THREADS"] = "1"
+import single_thread  # noqa: F401  (before numpy: one BLAS thread)
 
 import numpy as np
 

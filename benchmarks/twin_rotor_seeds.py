@@ -15,9 +15,8 @@ where the linearisation is the small-signal truth.
 
 from __future__ import annotations
 
-import os
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+import single_thread  # noqa: F401  (before numpy: one BLAS thread)
 
 import argparse  # noqa: E402
 
