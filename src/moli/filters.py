@@ -17,6 +17,7 @@ first takes the slowest real root. ``alpha_j = alpha`` when ``l_j = nbar``.
 
 from __future__ import annotations
 
+import cmath
 from typing import Sequence
 
 import numpy as np
@@ -124,24 +125,53 @@ def check_alpha(alpha: Sequence[float]) -> np.ndarray:
     return coeffs
 
 
-def _root_groups(roots: np.ndarray, tol: float) -> list[np.ndarray]:
+def _poly(roots: np.ndarray, products: dict[tuple, np.ndarray] | None = None) -> np.ndarray:
+    """Real coefficients of the monic polynomial with these roots, exactly as ``np.poly``.
+
+    The factors ``q - r`` are multiplied in the given order by the same convolutions
+    as ``np.poly``, so the coefficients agree to the last bit. ``products`` (keyed by
+    leading roots) keeps every partial product: the root lists of one filter and of
+    its divisors mostly start with the same slow roots, so few convolutions remain.
+    """
+    values = roots.tolist()
+    dtype = roots.dtype             # real roots are multiplied in real arithmetic, as np.poly does
+    head = (dtype.char,)
+    coeffs = np.ones(1, dtype)
+    done = 0
+    if products is not None:
+        while done < len(values) and head + tuple(values[: done + 1]) in products:
+            done += 1
+        if done:
+            coeffs = products[head + tuple(values[:done])]
+    for k in range(done, len(values)):
+        coeffs = np.convolve(coeffs, np.array([1, -values[k]], dtype=dtype))
+        if products is not None:
+            products[head + tuple(values[: k + 1])] = coeffs
+    return np.real(coeffs).copy()
+
+
+def _root_groups(roots: np.ndarray, tol: float) -> list[tuple]:
     """Group roots into conjugate pairs and real singles, slowest first."""
-    scale = np.maximum(np.abs(roots), 1e-300)
-    is_real = np.abs(roots.imag) <= tol * scale
-    groups = [np.array([r.real]) for r in roots[is_real]]
-    upper = roots[~is_real & (roots.imag > 0)]
-    groups += [np.array([r, np.conj(r)]) for r in upper]
+    reals: list[tuple] = []
+    pairs: list[tuple] = []
+    # Python scalars: numpy's per-element overhead dominates for a dozen roots
+    for r in np.asarray(roots, complex).tolist():
+        if abs(r.imag) <= tol * max(abs(r), 1e-300):
+            reals.append((r.real,))
+        elif r.imag > 0:
+            pairs.append((r, r.conjugate()))
     # slowest (largest modulus) first; a real root after a pair of equal modulus
-    groups.sort(key=lambda g: (-abs(g[0]), g.size == 1, -abs(np.angle(g[0]))))
+    groups = reals + pairs
+    groups.sort(key=lambda g: (-abs(g[0]), len(g) == 1, -abs(cmath.phase(g[0]))))
     return groups
 
 
-def _select(groups: list[np.ndarray], degree: int) -> list[np.ndarray] | None:
+def _select(groups: list[tuple], degree: int) -> list[tuple] | None:
     """Slowest groups filling ``degree`` (an odd degree first takes the slowest real root)."""
-    chosen: list[np.ndarray] = []
+    chosen: list[tuple] = []
     budget = degree
     if degree % 2 == 1:
-        reals = [i for i, g in enumerate(groups) if g.size == 1]
+        reals = [i for i, g in enumerate(groups) if len(g) == 1]
         if not reals:
             return None
         groups = list(groups)
@@ -150,18 +180,25 @@ def _select(groups: list[np.ndarray], degree: int) -> list[np.ndarray] | None:
     for g in groups:
         if budget == 0:
             break
-        if g.size <= budget:
+        if len(g) <= budget:
             chosen.append(g)
-            budget -= g.size
+            budget -= len(g)
     return None if budget else chosen
 
 
-def _pick_divisor(roots: np.ndarray, degree: int) -> np.ndarray:
-    """Coefficients of the divisor of the given degree chosen from ``roots`` by the root rule."""
+def _pick_divisor(
+    roots: np.ndarray, degree: int, products: dict[tuple, np.ndarray] | None = None
+) -> np.ndarray:
+    """Coefficients of the divisor of the given degree chosen from ``roots`` by the root rule.
+
+    ``products`` is the cache of partial products of :func:`_poly`.
+    """
     for tol in _REAL_TOLERANCES:
         chosen = _select(_root_groups(roots, tol), degree)
         if chosen is not None:
-            return np.real(np.poly(np.concatenate(chosen)))
+            values = [r for g in chosen for r in g]
+            dtype = complex if any(len(g) == 2 for g in chosen) else float
+            return _poly(np.array(values, dtype=dtype), products)
     raise FilterError(
         f"alpha with roots {np.round(roots, 6).tolist()} has no real root, so it has no "
         f"real divisor of degree {degree}; build alpha with filter_polynomial(..., indices) "

@@ -18,7 +18,7 @@ import scipy.stats
 
 from .errors import OptionError
 from .estimation import filtered_regressors, fit_batch, realize, solve_batch
-from .filters import _pick_divisor, filter_divisors, filter_roots
+from .filters import _pick_divisor, _poly, filter_divisors, filter_roots
 from .simulation import simulate_batch
 from .structure import Indices
 from .validation import X0_CHOICES
@@ -127,6 +127,8 @@ class RegressionCache:
         self._factors: dict[bytes, np.ndarray] = {}
         self._thetas: dict[tuple[bytes, int, int], tuple[np.ndarray, float]] = {}
         self._filters: dict[tuple, tuple[np.ndarray, dict[int, np.ndarray], np.ndarray]] = {}
+        # partial products of filter roots, shared by every alpha and divisor built here
+        self._products: dict[tuple, np.ndarray] = {}
         self.factorizations = 0
         self.solves = 0
 
@@ -143,11 +145,11 @@ class RegressionCache:
         key = (wc, zeta, Ts, s, nbar, needs_real)
         if key not in self._filters:
             roots = filter_roots(wc, zeta, indices, Ts, s)
-            alpha = np.real(np.poly(roots))
+            alpha = _poly(roots, self._products)
             self._filters[key] = (alpha, {nbar: alpha}, roots)
         alpha, divs, roots = self._filters[key]
         for l in set(indices) - divs.keys():
-            divs[l] = _pick_divisor(roots, l)
+            divs[l] = _pick_divisor(roots, l, self._products)
         return alpha, divs
 
     def factor(self, alphas: Sequence[np.ndarray]) -> list[np.ndarray]:
