@@ -196,15 +196,14 @@ class RegressionCache:
             out = np.empty((R, c * l + j + extra_u))
             missing = [r for r in range(R) if (keys[r], j, l) not in self._thetas]
             if missing:
-                small, rhs = [], []
-                for r in missing:
-                    M, b = _small_problem(factors[r], alphas[r], divisors_[r][j], c, self.p, j, extra_u)
-                    small.append(M)
-                    rhs.append(b)
+                small, rhs = _small_problems(
+                    np.stack([factors[r] for r in missing]), np.stack([alphas[r] for r in missing]),
+                    np.stack([divisors_[r][j] for r in missing]), c, self.p, j, extra_u,
+                )
                 if self.feedthrough == "auto":
-                    theta, cnd = self._solve_tested(small, rhs, alphas, missing)
+                    theta, cnd = self._solve_tested(small, rhs, alphas[0].size - 1)
                 else:
-                    theta, cnd = _solve_all(small, rhs)
+                    theta, cnd = solve_batch(small, rhs)
                 for i, r in enumerate(missing):
                     self._thetas[(keys[r], j, l)] = (theta[i], float(cnd[i]))
                 self.solves += len(missing)
@@ -216,36 +215,35 @@ class RegressionCache:
 
 
     def _solve_tested(
-        self, small: list[np.ndarray], rhs: list[np.ndarray], alphas: Sequence[np.ndarray],
-        which: list[int],
+        self, small: np.ndarray, rhs: np.ndarray, nbar: int
     ) -> tuple[np.ndarray, np.ndarray]:
         """Solve with feedthrough, and keep it only where an F-test on the estimation data asks.
 
-        The residual sums of squares of the reduced problems equal those of the full
-        ones (``|X v| = |R v|``). With the ``m`` feedthrough columns last, one
-        triangular factor of the column-scaled ``[M, b]`` gives both nested fits: the
-        problem without feedthrough is its leading block. The level
-        :data:`FEEDTHROUGH_LEVEL` is strict because the residuals are coloured.
+        ``small`` (R, k, q) and ``rhs`` (R, k) are reduced problems
+        (:func:`_small_problems`) of filters of degree ``nbar``, with the ``m``
+        feedthrough columns last. The residual sums of squares of the reduced problems
+        equal those of the full ones (``|X v| = |R v|``), and one triangular factor of
+        the column-scaled ``[M, b]`` gives both nested fits: the problem without
+        feedthrough is its leading block. The level :data:`FEEDTHROUGH_LEVEL` is strict
+        because the residuals are coloured.
         """
         m = self.z.shape[1] - self.p
-        shapes = {M.shape for M in small}
-        q1 = small[0].shape[1]
-        dof = self.z.shape[0] - (alphas[which[0]].size - 1) - q1
-        if len(shapes) != 1 or small[0].shape[0] <= q1 or dof <= 0:
-            return _solve_all(small, rhs)           # short records: keep the feedthrough
+        k_rows, q1 = small.shape[1:]
+        dof = self.z.shape[0] - nbar - q1
+        if k_rows <= q1 or dof <= 0:
+            return solve_batch(small, rhs)           # short records: keep the feedthrough
         q0 = q1 - m
-        M = np.stack(small)
-        norms = np.linalg.norm(M, axis=1, keepdims=True)
+        norms = np.linalg.norm(small, axis=1, keepdims=True)
         norms[norms == 0] = 1.0
-        r = np.linalg.qr(np.concatenate([M / norms, np.stack(rhs)[..., None]], axis=2), mode="r")
+        r = np.linalg.qr(np.concatenate([small / norms, rhs[..., None]], axis=2), mode="r")
         rss1 = r[:, q1, q1] ** 2
         rss0 = np.sum(r[:, q0 : q1 + 1, q1] ** 2, axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
             statistic = (rss0 - rss1) / m / (rss1 / dof)
         keep = ~(statistic <= _f_critical(m, dof))    # NaN (exact fit) keeps the feedthrough
         size = np.where(keep, q1, q0)
-        theta = np.zeros((len(small), q1))
-        cond = np.empty(len(small))
+        theta = np.zeros((small.shape[0], q1))
+        cond = np.empty(small.shape[0])
         for k in (q0, q1):
             rows = np.flatnonzero(size == k)
             if rows.size == 0:
@@ -258,7 +256,7 @@ class RegressionCache:
             if good.any():
                 theta[rows[good], :k] = np.linalg.solve(tri[good], r[rows[good], :k, q1][..., None])[..., 0]
             for i in rows[~good]:   # rank deficient: minimum-norm solution
-                theta[i, :k] = scipy.linalg.lstsq(M[i, :, :k] / norms[i, :, :k], rhs[i])[0]
+                theta[i, :k] = scipy.linalg.lstsq(small[i, :, :k] / norms[i, :, :k], rhs[i])[0]
         return theta / norms[:, 0, :], cond
 
 
@@ -268,34 +266,23 @@ def _f_critical(m: int, dof: int) -> float:
     return float(scipy.stats.f.isf(FEEDTHROUGH_LEVEL, m, dof))
 
 
-def _solve_all(small: list[np.ndarray], rhs: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`solve_batch` over reduced problems (stacked when their shapes agree)."""
-    rows = {M.shape[0] for M in small}
-    if len(rows) == 1 and rows.pop() >= small[0].shape[1]:
-        return solve_batch(np.stack(small), np.stack(rhs))
-    # short records: one problem at a time
-    pairs = [solve_batch(M[None], b[None]) for M, b in zip(small, rhs)]
-    return np.concatenate([t for t, _ in pairs]), np.concatenate([k for _, k in pairs])
-
-
 def _quotient_map(alpha: np.ndarray, alpha_j: np.ndarray) -> np.ndarray:
     """``(nbar, l)`` matrix ``Q`` with ``Q[t, i]`` the weight of ``q^t/alpha`` in ``q^i/alpha_j``.
 
     With ``alpha/alpha_j = sum_k c_k q^(d-k)``, ``d = nbar - l``:
     ``q^i/alpha_j = q^i (alpha/alpha_j)/alpha = sum_k c_k q^(i+d-k)/alpha``.
+    Stacks of polynomials (leading axes) give a stack of maps.
     """
-    nbar, l = alpha.size - 1, alpha_j.size - 1
+    nbar, l = alpha.shape[-1] - 1, alpha_j.shape[-1] - 1
     d = nbar - l
     # monic long division alpha / alpha_j (exact: alpha_j divides alpha)
-    quotient = np.empty(d + 1)
+    quotient = np.empty(alpha.shape[:-1] + (d + 1,))
     rest = alpha.copy()
     for k in range(d + 1):
-        quotient[k] = rest[k]
-        rest[k : k + l + 1] -= quotient[k] * alpha_j
-    Q = np.zeros((nbar, l))
-    for k in range(d + 1):
-        Q[np.arange(l) + d - k, np.arange(l)] = quotient[k]
-    return Q
+        quotient[..., k] = rest[..., k]
+        rest[..., k : k + l + 1] -= quotient[..., k, None] * alpha_j
+    k = np.arange(l)[None, :] + d - np.arange(nbar)[:, None]       # Q[t, i] = c_k
+    return np.where((k >= 0) & (k <= d), quotient[..., np.clip(k, 0, d)], 0.0)
 
 
 def _regressor_map(
@@ -316,22 +303,35 @@ def _regressor_map(
     return np.vstack([np.hstack([T, np.zeros((c * nbar, j + m))]), tail])
 
 
-def _small_problem(
-    factor: np.ndarray, alpha: np.ndarray, alpha_j: np.ndarray, c: int, p: int, j: int, m: int
+def _small_problems(
+    factors: np.ndarray, alphas: np.ndarray, divisors_: np.ndarray, c: int, p: int, j: int, m: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """``(R T, R e)``: output ``j``'s least-squares problem reduced by the factor ``R``.
+    """``(R T, R e)``: output ``j``'s least-squares problems reduced by the factors ``R``.
 
-    Same as ``factor @ _regressor_map(...)`` without forming ``T``.
+    Same as ``factor @ _regressor_map(...)`` for each filter, without forming ``T``.
+
+    Parameters
+    ----------
+    factors : ndarray, shape (B, k, c nbar + p [+ m])
+        Triangular factors of ``[xi, y]`` (``[xi, y, u]`` with feedthrough), one per filter.
+    alphas, divisors_ : ndarray, shapes (B, nbar + 1), (B, l + 1)
+        Each filter's ``alpha`` and its divisor for output ``j``.
+    c, p, j, m : int
+        Signals, outputs, the output and the feedthrough inputs (0 for none).
+
+    Returns
+    -------
+    ndarray, shape (B, k, c l + j + m)
+    ndarray, shape (B, k)
     """
-    nbar = alpha.size - 1
-    k = factor.shape[0]
-    Q = _quotient_map(alpha, alpha_j)
-    w = (factor[:, : c * nbar].reshape(k, c, nbar) @ Q).reshape(k, -1)
-    tail = factor[:, c * nbar : c * nbar + j]
-    parts = [w, tail]
+    B, k = factors.shape[:2]
+    nbar = alphas.shape[1] - 1
+    Q = _quotient_map(alphas, divisors_)
+    w = (factors[:, :, : c * nbar].reshape(B, k, c, nbar) @ Q[:, None]).reshape(B, k, -1)
+    parts = [w, factors[:, :, c * nbar : c * nbar + j]]
     if m:
-        parts.append(factor[:, c * nbar + p : c * nbar + p + m])
-    return np.concatenate(parts, axis=1), factor[:, c * nbar + j]
+        parts.append(factors[:, :, c * nbar + p : c * nbar + p + m])
+    return np.concatenate(parts, axis=2), factors[:, :, c * nbar + j]
 
 
 def _initial_response(A: np.ndarray, C: np.ndarray, error: np.ndarray) -> np.ndarray:
