@@ -10,10 +10,32 @@ matrix products. Cost and memory stay linear in ``N``.
 from __future__ import annotations
 
 import numpy as np
+from numpy.lib.stride_tricks import as_strided
 
 
 def _block_length(N: int) -> int:
     return int(np.clip(np.sqrt(N), 4, 64))
+
+
+def _block_toeplitz(markov: np.ndarray) -> np.ndarray:
+    """Lower block Toeplitz matrices ``T[r, (i, a), (j, c)] = markov[i - 1 - j, r, a, c]``.
+
+    Zero for ``j >= i``; ``markov`` has shape (L, R, p, m), the result (R, L p, L m).
+    Row ``(i, a)`` of ``T[r]`` is a contiguous slice of ``[markov[L-1], ..., markov[0],
+    0, ..., 0]`` (channel ``a``, entries ``(j, c)``), so the matrix is a strided view of
+    that sequence copied once.
+    """
+    L, R, p, m = markov.shape
+    sequence = np.zeros((R, p, 2 * L, m))
+    sequence[:, :, :L] = markov[::-1].transpose(1, 2, 0, 3)
+    s_r, s_a, s_k, s_c = sequence.strides
+    # row i starts at position L - i: a negative stride along i from position L
+    view = as_strided(
+        sequence[:, :, L:], (R, L, p, L, m), (s_r, -s_k, s_a, s_k, s_c), writeable=False
+    )
+    # always a C-ordered copy: reshape keeps the strided view when p = 1, and the
+    # product with such a view takes another path with different rounding
+    return np.ascontiguousarray(view).reshape(R, L * p, L * m)
 
 
 def simulate_batch(
@@ -53,9 +75,7 @@ def simulate_batch(
         markov = CA @ B[None]                           # (L, R, p, m): C A^k B
         AB = powers[:L] @ B[None]                       # (L, R, n, m): A^k B
         obs = CA.transpose(1, 0, 2, 3).reshape(R, L * p, n)
-        lag = np.arange(L)[:, None] - 1 - np.arange(L)[None, :]
-        toeplitz = markov[np.clip(lag, 0, None)] * (lag >= 0)[:, :, None, None, None]
-        toeplitz = toeplitz.transpose(2, 0, 3, 1, 4).reshape(R, L * p, L * m)
+        toeplitz = _block_toeplitz(markov)
         reach = AB[::-1].transpose(1, 2, 0, 3).reshape(R, n, L * m)   # [A^{L-1}B ... B]
         forced = ub @ toeplitz.transpose(0, 2, 1)                      # (R, nb, L p)
         drive = ub @ reach.transpose(0, 2, 1)                          # (R, nb, n)
