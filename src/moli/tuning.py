@@ -451,7 +451,10 @@ class FilterScorer:
         if self.x0 == "estimate":
             yhat = yhat + _initial_response(A, C, self.y[None] - yhat)
         with np.errstate(all="ignore"):
-            ratio = np.var(self.y[None] - yhat, axis=1) / self.y_var
+            # samples first: the variance then sums long contiguous rows, the same
+            # sequential sums as along axis 1 of (R, N, p) but several times faster
+            error = self.y[:, None, :] - np.ascontiguousarray(yhat.transpose(1, 0, 2))
+            ratio = np.var(error, axis=0) / self.y_var
         ratio = np.where(np.isfinite(ratio), np.minimum(ratio, 1.0), 1.0)
         if self.max_radius is not None:
             radius = np.max(np.abs(np.linalg.eigvals(A)), axis=1)
