@@ -70,7 +70,7 @@ def simulate_batch(
         powers = np.empty((L + 1, R, n, n))
         powers[0] = np.eye(n)
         for k in range(L):
-            powers[k + 1] = powers[k] @ A
+            np.matmul(powers[k], A, out=powers[k + 1])
         CA = C[None] @ powers[:L]                       # (L, R, p, n)
         markov = CA @ B[None]                           # (L, R, p, m): C A^k B
         AB = powers[:L] @ B[None]                       # (L, R, n, m): A^k B
@@ -80,11 +80,12 @@ def simulate_batch(
         forced = ub @ toeplitz.transpose(0, 2, 1)                      # (R, nb, L p)
         drive = ub @ reach.transpose(0, 2, 1)                          # (R, nb, n)
         step = powers[L].transpose(0, 2, 1)
-        states = np.empty((R, nb, n))
-        x = np.zeros((R, 1, n)) if x0 is None else np.asarray(x0, float).reshape(R, 1, n)
-        for b in range(nb):
-            states[:, b] = x[:, 0]
-            x = x @ step + drive[:, b : b + 1]
+        states = np.empty((R, nb, n))                                  # x at each block start
+        states[:, 0] = 0.0 if x0 is None else np.asarray(x0, float).reshape(R, n)
+        carry = np.empty((R, 1, n))
+        for b in range(nb - 1):
+            np.matmul(states[:, b : b + 1], step, out=carry)
+            np.add(carry, drive[:, b : b + 1], out=states[:, b + 1 : b + 2])
         y = forced + states @ obs.transpose(0, 2, 1)
     return y.reshape(R, nb * L, p)[:, :N]
 
