@@ -125,28 +125,30 @@ def check_alpha(alpha: Sequence[float]) -> np.ndarray:
     return coeffs
 
 
-def _poly(roots: np.ndarray, products: dict[tuple, np.ndarray] | None = None) -> np.ndarray:
+def _poly(roots: np.ndarray, products: dict[bytes, np.ndarray] | None = None) -> np.ndarray:
     """Real coefficients of the monic polynomial with these roots, exactly as ``np.poly``.
 
     The factors ``q - r`` are multiplied in the given order by the same convolutions
     as ``np.poly``, so the coefficients agree to the last bit. ``products`` (keyed by
-    leading roots) keeps every partial product: the root lists of one filter and of
-    its divisors mostly start with the same slow roots, so few convolutions remain.
+    the leading roots' bytes) keeps every partial product: the root lists of one
+    filter and of its divisors mostly start with the same slow roots, so few
+    convolutions remain.
     """
-    values = roots.tolist()
     dtype = roots.dtype             # real roots are multiplied in real arithmetic, as np.poly does
-    head = (dtype.char,)
+    data, size = roots.tobytes(), dtype.itemsize
+    head = dtype.char.encode()
     coeffs = np.ones(1, dtype)
     done = 0
     if products is not None:
-        while done < len(values) and head + tuple(values[: done + 1]) in products:
+        while done < roots.size and head + data[: size * (done + 1)] in products:
             done += 1
         if done:
-            coeffs = products[head + tuple(values[:done])]
-    for k in range(done, len(values)):
+            coeffs = products[head + data[: size * done]]
+    values = roots.tolist()
+    for k in range(done, roots.size):
         coeffs = np.convolve(coeffs, np.array([1, -values[k]], dtype=dtype))
         if products is not None:
-            products[head + tuple(values[: k + 1])] = coeffs
+            products[head + data[: size * (k + 1)]] = coeffs
     return np.real(coeffs).copy()
 
 
@@ -187,7 +189,7 @@ def _select(groups: list[tuple], degree: int) -> list[tuple] | None:
 
 
 def _pick_divisor(
-    roots: np.ndarray, degree: int, products: dict[tuple, np.ndarray] | None = None
+    roots: np.ndarray, degree: int, products: dict[bytes, np.ndarray] | None = None
 ) -> np.ndarray:
     """Coefficients of the divisor of the given degree chosen from ``roots`` by the root rule.
 
