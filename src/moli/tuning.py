@@ -128,7 +128,7 @@ class RegressionCache:
         self._thetas: dict[tuple[bytes, int, int], tuple[np.ndarray, float]] = {}
         self._filters: dict[tuple, tuple[np.ndarray, dict[int, np.ndarray], np.ndarray]] = {}
         # partial products of filter roots, shared by every alpha and divisor built here
-        self._products: dict[tuple, np.ndarray] = {}
+        self._products: dict[bytes, np.ndarray] = {}
         self.factorizations = 0
         self.solves = 0
 
@@ -187,18 +187,22 @@ class RegressionCache:
         """
         R = len(alphas)
         c = self.z.shape[1]
+        extra_u = c - self.p if self.feedthrough else 0
         keys = [a.tobytes() for a in alphas]
         factors = self.factor(alphas)
+        stacked = None          # factors and filters as arrays, once an output needs a solve
         thetas = []
         cond = np.ones(R)
         for j, l in enumerate(indices):
-            extra_u = c - self.p if self.feedthrough else 0
             out = np.empty((R, c * l + j + extra_u))
             missing = [r for r in range(R) if (keys[r], j, l) not in self._thetas]
             if missing:
+                if stacked is None:
+                    stacked = np.stack(factors), np.stack(alphas)
+                rows = missing if len(missing) < R else slice(None)
                 small, rhs = _small_problems(
-                    np.stack([factors[r] for r in missing]), np.stack([alphas[r] for r in missing]),
-                    np.stack([divisors_[r][j] for r in missing]), c, self.p, j, extra_u,
+                    stacked[0][rows], stacked[1][rows], np.stack([divisors_[r][j] for r in missing]),
+                    c, self.p, j, extra_u,
                 )
                 if self.feedthrough == "auto":
                     theta, cnd = self._solve_tested(small, rhs, alphas[0].size - 1)
