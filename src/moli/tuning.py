@@ -232,35 +232,35 @@ class RegressionCache:
         because the residuals are coloured.
         """
         m = self.z.shape[1] - self.p
-        k_rows, q1 = small.shape[1:]
+        count, k_rows, q1 = small.shape
         dof = self.z.shape[0] - nbar - q1
         if k_rows <= q1 or dof <= 0:
             return solve_batch(small, rhs)           # short records: keep the feedthrough
         q0 = q1 - m
-        norms = np.linalg.norm(small, axis=1, keepdims=True)
+        norms = np.sqrt(np.add.reduce(small * small, axis=1, keepdims=True))   # np.linalg.norm's sums
         norms[norms == 0] = 1.0
-        r = np.linalg.qr(np.concatenate([small / norms, rhs[..., None]], axis=2), mode="r")
+        scaled = np.empty((count, k_rows, q1 + 1))
+        np.divide(small, norms, out=scaled[:, :, :q1])
+        scaled[:, :, q1] = rhs
+        r = np.linalg.qr(scaled, mode="r")
         rss1 = r[:, q1, q1] ** 2
         rss0 = np.sum(r[:, q0 : q1 + 1, q1] ** 2, axis=1)
         with np.errstate(divide="ignore", invalid="ignore"):
             statistic = (rss0 - rss1) / m / (rss1 / dof)
         keep = ~(statistic <= _f_critical(m, dof))    # NaN (exact fit) keeps the feedthrough
-        size = np.where(keep, q1, q0)
-        theta = np.zeros((small.shape[0], q1))
-        cond = np.empty(small.shape[0])
-        for k in (q0, q1):
-            rows = np.flatnonzero(size == k)
-            if rows.size == 0:
+        diag = np.abs(r.diagonal(axis1=1, axis2=2))
+        theta = np.zeros((count, q1))
+        cond = np.empty(count)
+        for k, rows in ((q1, keep), (q0, ~keep)):
+            if not rows.any():
                 continue
-            tri = r[rows, :k, :k]
-            diag = np.abs(np.diagonal(tri, axis1=1, axis2=2))
             with np.errstate(divide="ignore"):
-                cond[rows] = diag.max(axis=1) / diag.min(axis=1)
-            good = cond[rows] < 1e13
+                cond[rows] = diag[rows, :k].max(axis=1) / diag[rows, :k].min(axis=1)
+            good = rows & (cond < 1e13)
             if good.any():
-                theta[rows[good], :k] = np.linalg.solve(tri[good], r[rows[good], :k, q1][..., None])[..., 0]
-            for i in rows[~good]:   # rank deficient: minimum-norm solution
-                theta[i, :k] = scipy.linalg.lstsq(small[i, :, :k] / norms[i, :, :k], rhs[i])[0]
+                theta[good, :k] = np.linalg.solve(r[good, :k, :k], r[good, :k, q1, None])[..., 0]
+            for i in np.flatnonzero(rows & ~good):    # rank deficient: minimum-norm solution
+                theta[i, :k] = scipy.linalg.lstsq(scaled[i, :, :k], rhs[i])[0]
         return theta / norms[:, 0, :], cond
 
 
