@@ -126,6 +126,8 @@ class RegressionCache:
         self.extra = z.shape[1] if feedthrough else p
         self._factors: dict[bytes, np.ndarray] = {}
         self._thetas: dict[tuple[bytes, int, int], tuple[np.ndarray, float]] = {}
+        # quotient maps of a batch of filters for one divisor degree (outputs share them)
+        self._quotients: dict[tuple[tuple[bytes, ...], int], np.ndarray] = {}
         self._filters: dict[tuple, tuple[np.ndarray, dict[int, np.ndarray], np.ndarray]] = {}
         # partial products of filter roots, shared by every alpha and divisor built here
         self._products: dict[bytes, np.ndarray] = {}
@@ -194,16 +196,16 @@ class RegressionCache:
         thetas = []
         cond = np.ones(R)
         for j, l in enumerate(indices):
-            out = np.empty((R, c * l + j + extra_u))
             missing = [r for r in range(R) if (keys[r], j, l) not in self._thetas]
             if missing:
                 if stacked is None:
                     stacked = np.stack(factors), np.stack(alphas)
                 rows = missing if len(missing) < R else slice(None)
-                small, rhs = _small_problems(
-                    stacked[0][rows], stacked[1][rows], np.stack([divisors_[r][j] for r in missing]),
-                    c, self.p, j, extra_u,
-                )
+                batch = (tuple(keys[r] for r in missing), l)
+                if batch not in self._quotients:
+                    divs = np.stack([divisors_[r][j] for r in missing])
+                    self._quotients[batch] = _quotient_map(stacked[1][rows], divs)
+                small, rhs = _small_problems(stacked[0][rows], self._quotients[batch], c, self.p, j, extra_u)
                 if self.feedthrough == "auto":
                     theta, cnd = self._solve_tested(small, rhs, alphas[0].size - 1)
                 else:
@@ -211,10 +213,9 @@ class RegressionCache:
                 for i, r in enumerate(missing):
                     self._thetas[(keys[r], j, l)] = (theta[i], float(cnd[i]))
                 self.solves += len(missing)
-            for r in range(R):
-                out[r], cr = self._thetas[(keys[r], j, l)]
-                cond[r] = max(cond[r], cr)
-            thetas.append(out)
+            solved = [self._thetas[(k, j, l)] for k in keys]
+            thetas.append(np.array([t for t, _ in solved]))
+            cond = np.fmax(cond, [cr for _, cr in solved])      # NaN estimates leave cond as it is
         return thetas, cond
 
 
@@ -279,14 +280,23 @@ def _quotient_map(alpha: np.ndarray, alpha_j: np.ndarray) -> np.ndarray:
     """
     nbar, l = alpha.shape[-1] - 1, alpha_j.shape[-1] - 1
     d = nbar - l
-    # monic long division alpha / alpha_j (exact: alpha_j divides alpha)
-    quotient = np.empty(alpha.shape[:-1] + (d + 1,))
+    # monic long division alpha / alpha_j (exact: alpha_j divides alpha); c_k is left
+    # in rest[k], where the division would only write a zero
     rest = alpha.copy()
+    tail = alpha_j[..., 1:]
     for k in range(d + 1):
-        quotient[..., k] = rest[..., k]
-        rest[..., k : k + l + 1] -= quotient[..., k, None] * alpha_j
-    k = np.arange(l)[None, :] + d - np.arange(nbar)[:, None]       # Q[t, i] = c_k
-    return np.where((k >= 0) & (k <= d), quotient[..., np.clip(k, 0, d)], 0.0)
+        rest[..., k + 1 : k + l + 1] -= rest[..., k, None] * tail
+    quotient = np.zeros(alpha.shape[:-1] + (d + 2,))      # c_0 .. c_d, then a zero
+    quotient[..., : d + 1] = rest[..., : d + 1]
+    return quotient[..., _band(nbar, l)]
+
+
+@functools.lru_cache(maxsize=None)
+def _band(nbar: int, l: int) -> np.ndarray:
+    """Index ``k`` of ``c_k`` at each entry of an ``(nbar, l)`` quotient map; ``d + 1`` off the band."""
+    d = nbar - l
+    k = np.arange(l)[None, :] + d - np.arange(nbar)[:, None]
+    return np.where((k >= 0) & (k <= d), k, d + 1)
 
 
 def _regressor_map(
@@ -308,7 +318,7 @@ def _regressor_map(
 
 
 def _small_problems(
-    factors: np.ndarray, alphas: np.ndarray, divisors_: np.ndarray, c: int, p: int, j: int, m: int
+    factors: np.ndarray, quotients: np.ndarray, c: int, p: int, j: int, m: int
 ) -> tuple[np.ndarray, np.ndarray]:
     """``(R T, R e)``: output ``j``'s least-squares problems reduced by the factors ``R``.
 
@@ -318,8 +328,8 @@ def _small_problems(
     ----------
     factors : ndarray, shape (B, k, c nbar + p [+ m])
         Triangular factors of ``[xi, y]`` (``[xi, y, u]`` with feedthrough), one per filter.
-    alphas, divisors_ : ndarray, shapes (B, nbar + 1), (B, l + 1)
-        Each filter's ``alpha`` and its divisor for output ``j``.
+    quotients : ndarray, shape (B, nbar, l)
+        Each filter's :func:`_quotient_map` for output ``j``'s divisor.
     c, p, j, m : int
         Signals, outputs, the output and the feedthrough inputs (0 for none).
 
@@ -329,9 +339,8 @@ def _small_problems(
     ndarray, shape (B, k)
     """
     B, k = factors.shape[:2]
-    nbar = alphas.shape[1] - 1
-    Q = _quotient_map(alphas, divisors_)
-    w = (factors[:, :, : c * nbar].reshape(B, k, c, nbar) @ Q[:, None]).reshape(B, k, -1)
+    nbar = quotients.shape[1]
+    w = (factors[:, :, : c * nbar].reshape(B, k, c, nbar) @ quotients[:, None]).reshape(B, k, -1)
     parts = [w, factors[:, :, c * nbar : c * nbar + j]]
     if m:
         parts.append(factors[:, :, c * nbar + p : c * nbar + p + m])
