@@ -9,6 +9,7 @@ all of them are delays of the single filtered signal ``lfilter(1, alpha_j, z)``.
 from __future__ import annotations
 
 import warnings
+from itertools import accumulate
 from typing import Sequence
 
 import numpy as np
@@ -121,27 +122,37 @@ def realize(
     -------
     A, B, C : ndarray, shapes (R, n, n), (R, n, m), (R, p, n)
     """
+    return _observer_form(thetas, alphas, indices, m)[:3]
+
+
+def _observer_form(
+    thetas: Sequence[np.ndarray], alphas: Sequence[Sequence[np.ndarray]], indices: Indices, m: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`realize`, and the output injection ``D_y`` with ``A = A_D + D_y C``.
+
+    Returns
+    -------
+    A, B, C, D_y : ndarray, shapes (R, n, n), (R, n, m), (R, p, n), (R, n, p)
+    """
     p = len(indices)
     R = thetas[0].shape[0]
     n = sum(indices)
-    starts = np.concatenate([[0], np.cumsum(indices)[:-1]])
     A_D = np.zeros((R, n, n))
     D = np.zeros((R, n, p))
     B = np.zeros((R, n, m))
     C = np.zeros((R, p, n))
-    for j, (l, s) in enumerate(zip(indices, starts)):
+    for j, (l, s) in enumerate(zip(indices, accumulate(indices, initial=0))):
         block = slice(s, s + l)
-        A_D[:, s + 1 : s + l, s : s + l - 1] += np.eye(l - 1)
+        A_D[:, range(s + 1, s + l), range(s, s + l - 1)] = 1.0
         A_D[:, block, s + l - 1] = -np.array([alphas[r][j][:0:-1] for r in range(R)])
         coeffs = thetas[j][:, : (p + m) * l].reshape(R, p + m, l).transpose(0, 2, 1)
         D[:, block] = coeffs[:, :, :p]
         B[:, block] = coeffs[:, :, p:]
         # (I - G) C = C_D with G strictly lower triangular: forward substitution
         C[:, j, s + l - 1] = 1.0
-        g = thetas[j][:, (p + m) * l :]
-        C[:, j] += np.einsum("ri,rin->rn", g, C[:, :j])
-    A = A_D + D @ C
-    return A, B, C
+        if j:
+            C[:, j] += np.einsum("ri,rin->rn", thetas[j][:, (p + m) * l :], C[:, :j])
+    return A_D + D @ C, B, C, D
 
 
 def fit_batch(

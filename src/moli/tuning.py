@@ -17,7 +17,7 @@ import scipy.linalg
 import scipy.stats
 
 from .errors import OptionError
-from .estimation import filtered_regressors, fit_batch, realize, solve_batch
+from .estimation import _observer_form, filtered_regressors, fit_batch, realize, solve_batch
 from .filters import _pick_divisor, _poly, filter_divisors, filter_roots
 from .simulation import simulate_batch
 from .structure import Indices
@@ -377,19 +377,10 @@ def _realize_feedthrough(
     ``y = (I - G)^-1 (C_D x + F u)``: ``C`` is unchanged, ``D = (I - G)^-1 F``, and the
     observer's output injection ``D_y y`` adds ``D_y D`` to ``B``.
     """
-    p = len(indices)
-    core = [t[:, :-m] for t in thetas]
-    A, B, C = realize(core, parts, indices, m)
-    R = A.shape[0]
+    A, B, C, D_y = _observer_form([t[:, :-m] for t in thetas], parts, indices, m)
     F = np.stack([t[:, -m:] for t in thetas], axis=1)             # (R, p, m)
     H = C[:, :, np.cumsum(indices) - 1]                           # (I - G)^-1
     D = H @ F
-    D_y = np.zeros((R, sum(indices), p))
-    start = 0
-    for j, l in enumerate(indices):
-        coeffs = core[j][:, : (p + m) * l].reshape(R, p + m, l).transpose(0, 2, 1)
-        D_y[:, start : start + l] = coeffs[:, :, :p]
-        start += l
     return A, B + D_y @ D, C, D
 
 
