@@ -14,10 +14,13 @@ from typing import Sequence
 
 import numpy as np
 import scipy.linalg
+import scipy.linalg.lapack
 import scipy.stats
+from numpy.lib.stride_tricks import as_strided
+from scipy.signal import lfilter
 
 from .errors import OptionError
-from .estimation import _observer_form, filtered_regressors, fit_batch, realize, solve_batch
+from .estimation import _observer_form, fit_batch, realize, solve_batch
 from .filters import _pick_divisor, _poly, filter_divisors, filter_roots
 from .simulation import simulate_batch
 from .structure import Indices
@@ -163,14 +166,24 @@ class RegressionCache:
             for k, a in todo.items():
                 by_degree.setdefault(a.size - 1, []).append((k, a))
             N, c = self.z.shape
+            signals = np.ascontiguousarray(self.z.T)
             for nbar, items in by_degree.items():
-                stack = np.empty((len(items), N - nbar, c * nbar + self.extra))
+                rows, cols = N - nbar, c * nbar + self.extra
+                # each matrix stored column by column: LAPACK factors it in place, without
+                # the copies np.linalg.qr makes of its input (same routine, same R)
+                columns = np.empty((len(items), cols, rows))
                 for i, (_, a) in enumerate(items):
-                    stack[i, :, : c * nbar] = filtered_regressors(self.z, a)[nbar:]
-                stack[:, :, c * nbar :] = self.z[nbar:, : self.extra]
-                factors = np.linalg.qr(stack, mode="r")
-                for (k, _), r in zip(items, factors):
-                    self._factors[k] = r
+                    # column r nbar + t (channel r filtered by q^t/alpha, from sample nbar
+                    # on) is the filtered channel r from sample t on
+                    base = lfilter([1.0], a, signals, axis=-1)
+                    s_r, s_k = base.strides
+                    delayed = as_strided(base, (c, nbar, rows), (s_r, s_k, s_k), writeable=False)
+                    np.copyto(columns[i, : c * nbar].reshape(c, nbar, rows), delayed)
+                columns[:, c * nbar :] = signals[: self.extra, nbar:]
+                lwork = _qr_workspace(rows, cols)
+                for (k, _), matrix in zip(items, columns):
+                    factored = scipy.linalg.lapack.dgeqrf(matrix.T, lwork=lwork, overwrite_a=True)[0]
+                    self._factors[k] = np.triu(factored[: min(rows, cols)])
                 self.factorizations += len(items)
         return [self._factors[k] for k in keys]
 
@@ -263,6 +276,17 @@ class RegressionCache:
             for i in np.flatnonzero(rows & ~good):    # rank deficient: minimum-norm solution
                 theta[i, :k] = scipy.linalg.lstsq(scaled[i, :, :k], rhs[i])[0]
         return theta / norms[:, 0, :], cond
+
+
+@functools.lru_cache(maxsize=None)
+def _qr_workspace(rows: int, cols: int) -> int:
+    """LAPACK's optimal workspace for the QR of a ``rows x cols`` matrix.
+
+    The workspace decides whether ``dgeqrf`` works in blocks; ``np.linalg.qr`` asks
+    for the same one, so the R factors agree with it to the last bit.
+    """
+    work = scipy.linalg.lapack.dgeqrf(np.empty((rows, cols), order="F"), lwork=-1)[2]
+    return max(int(work[0]), 1)
 
 
 @functools.lru_cache(maxsize=None)
