@@ -103,7 +103,7 @@ def filter_polynomial(
     >>> filter_polynomial(0.5, 1.0, [1])
     array([ 1.        , -0.60653066])
     """
-    return np.real(np.poly(filter_roots(wc, zeta, indices, Ts, s)))
+    return _poly(filter_roots(wc, zeta, indices, Ts, s))
 
 
 def check_alpha(alpha: Sequence[float]) -> np.ndarray:
@@ -264,5 +264,5 @@ def filter_divisors(
     """
     roots = filter_roots(wc, zeta, indices, Ts, s)
     nbar = roots.size
-    cache = {l: (np.real(np.poly(roots)) if l == nbar else _pick_divisor(roots, l)) for l in set(indices)}
+    cache = {l: (_poly(roots) if l == nbar else _pick_divisor(roots, l)) for l in set(indices)}
     return [cache[l] for l in indices]
