@@ -9,12 +9,14 @@ matrix products. Cost and memory stay linear in ``N``.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
 
 def _block_length(N: int) -> int:
-    return int(np.clip(np.sqrt(N), 4, 64))
+    return int(min(max(math.sqrt(N), 4), 64))
 
 
 def _block_toeplitz(markov: np.ndarray) -> np.ndarray:
