@@ -95,6 +95,21 @@ def test_fit_validate_info_on_a_csv(tmp_path, csv_file, record):
     assert "stable: yes" in described.output and "Ts = 1" in described.output
 
 
+def test_fit_preset_gives_the_api_model(tmp_path, csv_file, record):
+    model_path = tmp_path / "paper.json"
+    fitted = run("fit", str(csv_file), "--inputs", INPUTS, "--outputs", OUTPUTS, "--nmax", str(NMAX),
+                 "--preset", "paper", "--out", str(model_path))
+    assert fitted.exit_code == 0, fitted.output + fitted.stderr
+    est, val = record.split(0.7)
+    expected = moli.identify(est, val, nmax=NMAX, preset="paper").model
+    saved = moli.load_model(model_path)
+    np.testing.assert_array_equal(saved.A, expected.A)
+    assert saved.info["options"]["preset"] == "paper"
+    # an unknown choice is a usage error, reported by click with the valid choices
+    wrong = run("fit", str(csv_file), "--preset", "fast")
+    assert wrong.exit_code == 2 and "'fast' is not one of 'improved', 'bounded', 'paper'" in wrong.stderr
+
+
 def test_ctrl_c_keeps_the_best_model_so_far(tmp_path, csv_file, monkeypatch):
     calls = []
 

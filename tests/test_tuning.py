@@ -1,11 +1,13 @@
-"""Filter scoring: shared factorizations, feedthrough, stability bound, zoom search, presets."""
+"""Filter scoring: shared factorizations, feedthrough, stability bound, trend-blind J, zoom search, presets."""
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import moli
 from moli.errors import OptionError
-from moli.tuning import FilterScorer, RegressionCache, default_omega, grid, tune_filter
+from moli.tuning import FilterScorer, RegressionCache, default_omega, error_ratio, grid, tune_filter
 
 
 def _random_system(n, p, m, seed, radius=0.9):
@@ -134,3 +136,38 @@ def test_presets_and_their_errors():
         moli.identify(est, val, nmax=4, refine="all")
     with pytest.raises(OptionError, match="max_radius"):
         moli.identify(est, val, nmax=4, max_radius=1.5)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    degree=st.integers(0, 5),
+    coeffs=st.lists(st.floats(-5, 5), min_size=6, max_size=6),
+    seed=st.integers(0, 2**16),
+)
+def test_trend_blind_error_ignores_a_polynomial_drift(degree, coeffs, seed):
+    rng = np.random.default_rng(seed)
+    N = 200
+    y = rng.standard_normal((N, 2)).cumsum(axis=0)
+    yhat = rng.standard_normal((3, N, 2))
+    drift = np.polynomial.legendre.legval(np.linspace(-1, 1, N), coeffs[: degree + 1])
+    plain = error_ratio(y, yhat, degree)
+    shifted = error_ratio(y, yhat + drift[None, :, None], degree)
+    # a drift inside the removed polynomial space changes nothing (up to round-off)
+    np.testing.assert_allclose(shifted, plain, rtol=1e-9, atol=1e-12)
+    # degree 0 is the paper's ratio; a larger degree never scores worse
+    paper = np.minimum(np.var(y[None] - yhat, axis=1) / np.var(y, axis=0), 1.0)
+    np.testing.assert_allclose(error_ratio(y, yhat, 0), paper, rtol=1e-12)
+    assert np.all(plain <= error_ratio(y, yhat, max(degree - 1, 0)) + 1e-12)
+
+
+def test_trend_degree_zero_is_the_papers_J_and_bad_degrees_raise():
+    z = _data(*_random_system(3, 2, 2, seed=5), noise=0.1)
+    omega = default_omega()
+    paper = FilterScorer(z, (2, 1), 1.0, 2.0, RegressionCache(z, 2)).score(omega)[0]
+    zero = FilterScorer(z, (2, 1), 1.0, 2.0, RegressionCache(z, 2), trend_degree=0).score(omega)[0]
+    np.testing.assert_array_equal(paper, zero)
+    est, val = moli.example_data(N=400, seed=2).split(300)
+    for bad in (-1, 6, 1.5, True, "2"):
+        with pytest.raises(OptionError, match="trend_degree"):
+            moli.identify(est, val, nmax=4, trend_degree=bad)
+    assert moli.identify(est, val, nmax=4).options["trend_degree"] == 2

@@ -22,7 +22,7 @@ from .data import IOData
 from .datasets import load_daisy
 from .errors import DataError, MoliError
 from .figures import measured_vs_simulated
-from .identify import IdentificationResult, identify
+from .identify import PRESETS, IdentificationResult, identify
 from .io import fingerprint, read_data
 from .model import StateSpaceModel, load_model
 from .report import write_report
@@ -79,7 +79,8 @@ def _echo_warnings(caught: list[warnings.WarningMessage]) -> None:
         click.echo(f"moli: warning: {message}", err=True)
 
 
-def _identify(data: IOData, fraction: float, nmax: int | None, seed: int, x0: str) -> IdentificationResult:
+def _identify(data: IOData, fraction: float, nmax: int | None, seed: int, x0: str,
+              preset: str = "improved") -> IdentificationResult:
     """Split off the validation tail and run the greedy search with a progress bar."""
     if not 0.0 < fraction < 1.0:
         raise DataError(f"--validation must be a fraction in (0, 1), got {fraction}")
@@ -89,7 +90,8 @@ def _identify(data: IOData, fraction: float, nmax: int | None, seed: int, x0: st
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
-            result = identify(estimation, validation, nmax=nmax, seed=seed, x0=x0, progress=progress)
+            result = identify(estimation, validation, nmax=nmax, seed=seed, x0=x0, preset=preset,
+                              progress=progress)
         finally:
             if progress.bar is not None:
                 progress.bar.close()
@@ -164,6 +166,9 @@ def demo(out_dir: Path, nmax: int, all_lists: bool) -> None:
 @click.option("--validation", "fraction", default=0.3, show_default=True,
               help="Share of the record, at its end, held out for order selection and the report.")
 @click.option("--seed", default=0, show_default=True, help="Seed of the randomized filter search.")
+@click.option("--preset", type=click.Choice(tuple(PRESETS)), default="improved", show_default=True,
+              help="Search options: improved (default), bounded (no modes slower than a tenth of "
+                   "the record) or paper (the published MOLI-ZOFT).")
 @click.option("--x0", type=click.Choice(X0_CHOICES), default="zero", show_default=True,
               help="Initial state of the validation simulations.")
 @click.option("--out", "model_path", default="model.json", show_default=True,
@@ -174,7 +179,7 @@ def demo(out_dir: Path, nmax: int, all_lists: bool) -> None:
               help=f"Also fit every list of orders with at most {MAX_LISTS_PER_ORDER} lists (report).")
 def fit(data_file: Path | None, inputs: str | None, outputs: str | None, daisy: str | None,
         data_dir: Path | None, ts: float | None, nmax: int | None, fraction: float, seed: int,
-        x0: str, model_path: Path, report_dir: Path | None, all_lists: bool) -> None:
+        preset: str, x0: str, model_path: Path, report_dir: Path | None, all_lists: bool) -> None:
     """Identify a model from a CSV, .npz, .mat or .parquet file.
 
     A CSV file needs a header row with the column names; a column named time or t
@@ -189,7 +194,7 @@ def fit(data_file: Path | None, inputs: str | None, outputs: str | None, daisy: 
         data = read_data(data_file, _names(inputs), _names(outputs), ts)
         source = str(data_file)
     click.echo(f"{source}: {data}")
-    result = _identify(data, fraction, nmax, seed, x0)
+    result = _identify(data, fraction, nmax, seed, x0, preset)
     result.model.info["data"]["source"] = source
     _finish(result, model_path, report_dir, all_lists)
 

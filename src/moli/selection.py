@@ -86,14 +86,19 @@ class StructureSearch:
     max_radius : float, optional
         Filter candidates whose model has a pole of at least this modulus score the
         worst J (see :class:`moli.tuning.FilterScorer`); None scores fit alone (paper).
+    trend_degree : int, default 0
+        Degree of the polynomial trend of the simulation error that J ignores (0:
+        the paper's J; see :class:`moli.tuning.FilterScorer`).
     """
 
     def __init__(
         self, estimation: IOData, validation: IOData, omega: np.ndarray, tuning: str = "random",
         iterations: int = 5, s: float = 2.0, seed: int = 0, x0: str = "zero",
         criterion_x0: str = "zero", feedthrough: bool = False, max_radius: float | None = None,
+        trend_degree: int = 0,
     ) -> None:
         self.max_radius = max_radius
+        self.trend_degree = trend_degree
         self.criterion_x0 = criterion_x0
         self.feedthrough = feedthrough
         self.estimation = estimation
@@ -130,7 +135,8 @@ class StructureSearch:
         start = time.perf_counter()
         est = self.estimation
         scorer = FilterScorer(
-            self._z, indices, est.Ts, self.s, self._regressions, self.criterion_x0, self.max_radius
+            self._z, indices, est.Ts, self.s, self._regressions, self.criterion_x0, self.max_radius,
+            self.trend_degree,
         )
         tuned: TuningResult = tune_filter(
             scorer, self.omega, self.tuning, self.iterations, np.random.default_rng([self.seed, *indices])

@@ -27,6 +27,9 @@ from .structure import Indices
 from .validation import X0_CHOICES
 
 TUNING_METHODS = ("grid", "random", "zoom")
+# Highest degree of the error trend J may ignore: beyond a few terms the polynomials
+# reach the plant's own frequencies on short records.
+MAX_TREND_DEGREE = 5
 FEEDTHROUGH_CHOICES = (False, True, "auto")
 # Significance level of the "auto" feedthrough test. Strict, because the equation
 # errors are coloured and the nominal F distribution then overstates significance.
@@ -408,6 +411,54 @@ def _realize_feedthrough(
     return A, B + D_y @ D, C, D
 
 
+@functools.lru_cache(maxsize=16)
+def _trend_basis(N: int, degree: int) -> np.ndarray:
+    """Orthonormal basis (N, degree + 1) of the polynomials of that degree over N samples."""
+    basis = np.polynomial.legendre.legvander(np.linspace(-1.0, 1.0, N), degree)
+    return np.linalg.qr(basis)[0]
+
+
+def error_ratio(
+    y: np.ndarray, yhat: np.ndarray, degree: int = 0, y_var: np.ndarray | None = None
+) -> np.ndarray:
+    """Per-output share of the output variance left in the simulation error, at most 1.
+
+    ``min(|e - P e|^2 / (N var(y)), 1)`` with ``e = y - yhat`` and ``P`` the projection
+    on the polynomials of the given degree over the record: degree 0 removes the
+    error's mean (the paper's J); a higher degree also ignores a slow drift of the
+    error. Diverging simulations (inf or NaN) score 1.
+
+    Parameters
+    ----------
+    y : ndarray, shape (N, p)
+        Measured outputs.
+    yhat : ndarray, shape (R, N, p)
+        Simulated outputs of ``R`` models.
+    degree : int, default 0
+        Degree of the polynomial trend ignored.
+    y_var : ndarray, shape (p,), optional
+        ``np.var(y, axis=0)`` when already known.
+
+    Returns
+    -------
+    ndarray, shape (R, p)
+    """
+    y_var = np.var(y, axis=0) if y_var is None else y_var
+    with np.errstate(all="ignore"):
+        # samples first: the sums run over long contiguous rows, the same sequential
+        # sums as along axis 1 of (R, N, p) but several times faster
+        error = y[:, None, :] - np.ascontiguousarray(yhat.transpose(1, 0, 2))
+        if degree == 0:
+            ratio = np.var(error, axis=0) / y_var
+        else:
+            N = y.shape[0]
+            basis = _trend_basis(N, degree)
+            flat = error.reshape(N, -1)
+            flat = flat - basis @ (basis.T @ flat)
+            ratio = np.einsum("ij,ij->j", flat, flat).reshape(error.shape[1:]) / (N * y_var)
+    return np.where(np.isfinite(ratio), np.minimum(ratio, 1.0), 1.0)
+
+
 class FilterScorer:
     """Scores filter candidates for one list of indices on one estimation record.
 
@@ -429,14 +480,18 @@ class FilterScorer:
         Candidates with a pole of at least this modulus score the worst J, 1, so that
         tuning and the structure path never prefer a (nearly) unstable model. None
         (the paper) scores every candidate by its fit alone.
+    trend_degree : int, default 0
+        J ignores the polynomial trend of this degree in the simulation error (see
+        :func:`error_ratio`); 0 is the paper's J.
     """
 
     def __init__(
         self, z: np.ndarray, indices: Indices, Ts: float, s: float,
         cache: RegressionCache | None = None, x0: str = "zero",
-        max_radius: float | None = None,
+        max_radius: float | None = None, trend_degree: int = 0,
     ) -> None:
         self.max_radius = max_radius
+        self.trend_degree = trend_degree
         if x0 not in X0_CHOICES:
             raise OptionError(f"x0 must be one of {X0_CHOICES}, got {x0!r}")
         self.x0 = x0
@@ -478,12 +533,7 @@ class FilterScorer:
             yhat = yhat + self.u @ matrices[3].transpose(0, 2, 1)
         if self.x0 == "estimate":
             yhat = yhat + _initial_response(A, C, self.y[None] - yhat)
-        with np.errstate(all="ignore"):
-            # samples first: the variance then sums long contiguous rows, the same
-            # sequential sums as along axis 1 of (R, N, p) but several times faster
-            error = self.y[:, None, :] - np.ascontiguousarray(yhat.transpose(1, 0, 2))
-            ratio = np.var(error, axis=0) / self.y_var
-        ratio = np.where(np.isfinite(ratio), np.minimum(ratio, 1.0), 1.0)
+        ratio = error_ratio(self.y, yhat, self.trend_degree, self.y_var)
         if self.max_radius is not None:
             radius = np.max(np.abs(np.linalg.eigvals(A)), axis=1)
             ratio[radius >= self.max_radius] = 1.0
