@@ -162,10 +162,18 @@ def test_trend_blind_error_ignores_a_polynomial_drift(degree, coeffs, seed):
 
 def test_trend_degree_zero_is_the_papers_J_and_bad_degrees_raise():
     z = _data(*_random_system(3, 2, 2, seed=5), noise=0.1)
+    y, u = z[:, :2], z[:, 2:]
     omega = default_omega()
-    paper = FilterScorer(z, (2, 1), 1.0, 2.0, RegressionCache(z, 2)).score(omega)[0]
-    zero = FilterScorer(z, (2, 1), 1.0, 2.0, RegressionCache(z, 2), trend_degree=0).score(omega)[0]
-    np.testing.assert_array_equal(paper, zero)
+    zero, (A, B, C) = FilterScorer(z, (2, 1), 1.0, 2.0, RegressionCache(z, 2), trend_degree=0).score(omega)
+    # the paper's J written out: each model simulated from rest, error variance over output variance
+    paper = [np.mean(np.minimum(np.var(y - moli.StateSpaceModel(a, b, c).simulate(u), axis=0)
+                                / np.var(y, axis=0), 1.0)) for a, b, c in zip(A, B, C)]
+    np.testing.assert_allclose(zero, paper, rtol=1e-9)
+    quadratic = FilterScorer(z, (2, 1), 1.0, 2.0, RegressionCache(z, 2), trend_degree=2).score(omega)[0]
+    # same models, less of the error counted
+    assert np.all(quadratic <= zero + 1e-12) and np.any(quadratic < zero - 1e-6)
+    with pytest.raises(OptionError, match="trend_degree"):
+        FilterScorer(z, (2, 1), 1.0, 2.0, trend_degree=-1)
     est, val = moli.example_data(N=400, seed=2).split(300)
     for bad in (-1, 6, 1.5, True, "2"):
         with pytest.raises(OptionError, match="trend_degree"):

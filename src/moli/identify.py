@@ -14,7 +14,9 @@ from .errors import DataError, OptionError
 from .estimation import check_sample_count
 from .model import StateSpaceModel
 from .selection import PathStep, StructureSearch, greedy_path, select_order
-from .tuning import FEEDTHROUGH_CHOICES, MAX_TREND_DEGREE, TUNING_METHODS, check_omega, default_omega
+from .tuning import (
+    FEEDTHROUGH_CHOICES, TUNING_METHODS, check_omega, check_trend_degree, default_omega,
+)
 from .refine import MAX_RADIUS
 from .refine import refine as refine_model
 from .validation import X0_CHOICES, compare
@@ -145,10 +147,7 @@ def _resolve(preset: str, given: dict[str, Any]) -> dict[str, Any]:
     radius = chosen["max_radius"]
     if not (radius is None or radius == "auto" or (isinstance(radius, (int, float)) and 0 < radius <= 1)):
         raise OptionError(f"max_radius must be None, 'auto' or a number in (0, 1], got {radius!r}")
-    degree = chosen["trend_degree"]
-    if isinstance(degree, bool) or not isinstance(degree, (int, np.integer)) or not 0 <= degree <= MAX_TREND_DEGREE:
-        raise OptionError(f"trend_degree must be an integer from 0 to {MAX_TREND_DEGREE}, got {degree!r}")
-    chosen["trend_degree"] = int(degree)
+    chosen["trend_degree"] = check_trend_degree(chosen["trend_degree"])
     if not any(chosen["feedthrough"] is v or chosen["feedthrough"] == "auto" for v in (True, False)):
         raise OptionError(f"feedthrough must be one of {FEEDTHROUGH_CHOICES}, got {chosen['feedthrough']!r}")
     return chosen
@@ -196,10 +195,11 @@ def identify(
         Seed of the randomized filter search.
     preset : {"improved", "bounded", "paper"}
         Defaults of the options below that are left as None. ``"improved"``: grid
-        barycenter, ``s = 2``, ``feedthrough="auto"``, no refinement. ``"bounded"``:
-        as improved with ``s = 3``, ``max_radius="auto"`` and ``trend_degree=0``, for plants whose time
-        constants are well below a tenth of the estimation record (it rules out the
-        slow, nearly unstable models that fit the estimation record's drift).
+        barycenter, ``s = 2``, ``feedthrough="auto"``, ``trend_degree=2``, no
+        refinement. ``"bounded"``: as improved with ``s = 3``, ``max_radius="auto"``
+        and ``trend_degree=0``, for plants whose time constants are well below a tenth
+        of the estimation record (it rules out the slow, nearly unstable models that
+        fit the estimation record's drift).
         ``"paper"``: the paper's MOLI-ZOFT (randomized barycenter, ``s = 2``, no
         feedthrough, the paper's J, no refinement).
     tuning : {"grid", "random", "zoom"}, optional

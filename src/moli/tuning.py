@@ -80,6 +80,15 @@ def check_omega(omega: object) -> np.ndarray:
     return array
 
 
+def check_trend_degree(degree: object) -> int:
+    """Validate the degree of the error trend J ignores: an integer 0..MAX_TREND_DEGREE."""
+    if isinstance(degree, bool) or not isinstance(degree, (int, np.integer)) or not (
+        0 <= degree <= MAX_TREND_DEGREE
+    ):
+        raise OptionError(f"trend_degree must be an integer from 0 to {MAX_TREND_DEGREE}, got {degree!r}")
+    return int(degree)
+
+
 def barycenter(etas: np.ndarray, costs: np.ndarray) -> np.ndarray:
     """Paper eq. (5): ``sum eta_r exp(-mu J_r) / sum exp(-mu J_r)``, ``mu = 40/min J``.
 
@@ -491,7 +500,7 @@ class FilterScorer:
         max_radius: float | None = None, trend_degree: int = 0,
     ) -> None:
         self.max_radius = max_radius
-        self.trend_degree = trend_degree
+        self.trend_degree = check_trend_degree(trend_degree)
         if x0 not in X0_CHOICES:
             raise OptionError(f"x0 must be one of {X0_CHOICES}, got {x0!r}")
         self.x0 = x0
