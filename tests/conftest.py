@@ -25,9 +25,14 @@ def daisy_dir() -> Path | None:
     return path if path.is_dir() else None
 
 
+def load_shared(name: str) -> moli.IOData:
+    """A shipped DaISy record read in place; skips the test when the folder lacks it."""
+    folder = daisy_dir()
+    if folder is None or not (folder / f"{name}.dat").is_file():
+        pytest.skip(f"DaISy {name}.dat not found: set MOLI_DATA_DIR to the DaISy folder")
+    return moli.datasets.load_daisy(name, data_dir=folder)
+
+
 @pytest.fixture
 def evaporator() -> moli.IOData:
-    folder = daisy_dir()
-    if folder is None or not (folder / "evaporator.dat").is_file():
-        pytest.skip("DaISy evaporator.dat not found: set MOLI_DATA_DIR to the DaISy folder")
-    return moli.datasets.load_daisy("evaporator", data_dir=folder)
+    return load_shared("evaporator")

@@ -136,6 +136,12 @@ def test_presets_and_their_errors():
         moli.identify(est, val, nmax=4, refine="all")
     with pytest.raises(OptionError, match="max_radius"):
         moli.identify(est, val, nmax=4, max_radius=1.5)
+    with pytest.raises(OptionError, match="max_radius"):
+        moli.identify(est, val, nmax=4, max_radius=True)
+    default = moli.identify(est, val, nmax=4)
+    assert default.options["max_radius"] == 1.0
+    assert all(st.stable for st in default.path if st.J < 1.0)
+    assert moli.identify(est, val, nmax=4, max_radius="none").options["max_radius"] is None
 
 
 @settings(max_examples=40, deadline=None)

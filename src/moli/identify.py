@@ -108,9 +108,10 @@ def _default_nmax(p: int) -> int:
 
 PRESETS: dict[str, dict[str, Any]] = {
     # default: grid barycenter, per-output feedthrough where the estimation data call
-    # for it, and J blind to a quadratic drift of the error (chosen on the 11
-    # evaporator windows, docs/benchmarks.md)
-    "improved": {"tuning": "grid", "s": 2.0, "feedthrough": "auto", "max_radius": None,
+    # for it, J blind to a quadratic drift of the error (chosen on the 11 evaporator
+    # windows, docs/benchmarks.md), and unstable candidates scored worst: a slightly
+    # unstable model can fit a finite record well and still diverge on the next one
+    "improved": {"tuning": "grid", "s": 2.0, "feedthrough": "auto", "max_radius": 1.0,
                  "criterion_x0": "zero", "trend_degree": 2, "refine": False},
     # filter candidates with modes slower than a tenth of the estimation record ruled
     # out, and wider root spacing: for plants known to be that fast (with the bound,
@@ -145,8 +146,12 @@ def _resolve(preset: str, given: dict[str, Any]) -> dict[str, Any]:
         raise OptionError(f"refine must be True, False or one of {REFINE_CHOICES}, got {refine_!r}")
     chosen["refine"] = refine_
     radius = chosen["max_radius"]
-    if not (radius is None or radius == "auto" or (isinstance(radius, (int, float)) and 0 < radius <= 1)):
-        raise OptionError(f"max_radius must be None, 'auto' or a number in (0, 1], got {radius!r}")
+    if radius == "none":
+        chosen["max_radius"] = radius = None
+    if not (radius is None or radius == "auto" or (
+        isinstance(radius, (int, float)) and not isinstance(radius, bool) and 0 < radius <= 1
+    )):
+        raise OptionError(f"max_radius must be 'none', 'auto' or a number in (0, 1], got {radius!r}")
     chosen["trend_degree"] = check_trend_degree(chosen["trend_degree"])
     if not any(chosen["feedthrough"] is v or chosen["feedthrough"] == "auto" for v in (True, False)):
         raise OptionError(f"feedthrough must be one of {FEEDTHROUGH_CHOICES}, got {chosen['feedthrough']!r}")
@@ -195,9 +200,9 @@ def identify(
         Seed of the randomized filter search.
     preset : {"improved", "bounded", "paper"}
         Defaults of the options below that are left as None. ``"improved"``: grid
-        barycenter, ``s = 2``, ``feedthrough="auto"``, ``trend_degree=2``, no
-        refinement. ``"bounded"``: as improved with ``s = 3``, ``max_radius="auto"``
-        and ``trend_degree=0``, for plants whose time constants are well below a tenth
+        barycenter, ``s = 2``, ``feedthrough="auto"``, ``max_radius=1`` (unstable
+        candidates score the worst J), ``trend_degree=2``, no refinement. ``"bounded"``: as improved with
+        ``s = 3``, ``max_radius="auto"`` and ``trend_degree=0``, for plants whose time constants are well below a tenth
         of the estimation record (it rules out the slow, nearly unstable models that
         fit the estimation record's drift).
         ``"paper"``: the paper's MOLI-ZOFT (randomized barycenter, ``s = 2``, no
@@ -212,11 +217,12 @@ def identify(
         Estimate a direct feedthrough ``D`` (the current inputs join the regressors).
         ``"auto"`` keeps it per output only where a nested F-test on the estimation
         data finds it significant (level 0.001); elsewhere ``D`` is exactly zero.
-    max_radius : float, "auto" or None, optional
+    max_radius : float, "auto" or "none", optional
         Filter candidates whose model has a pole of this modulus or more score the
         worst J, so neither tuning nor the path prefers them. ``"auto"``:
         ``exp(-10/N)`` for ``N`` estimation samples (time constants up to a tenth
-        of the record); None: the paper's J alone.
+        of the record); ``"none"``: the paper's J alone, whatever the poles (None
+        leaves the preset's choice).
     criterion_x0 : {"zero", "estimate"}, optional
         Initial state of the estimation-data simulations behind J.
     trend_degree : int, optional
