@@ -38,6 +38,7 @@ CONFIGS: dict[str, dict] = {
     "paper + max_radius auto": {"preset": "paper", "max_radius": "auto"},
     "paper + J with estimated x0": {"preset": "paper", "criterion_x0": "estimate"},
     "improved (default)": {"preset": "improved"},
+    "improved, unstable candidates not ruled out": {"preset": "improved", "max_radius": "none"},
     "improved, paper's J (trend degree 0)": {"preset": "improved", "trend_degree": 0},
     "improved, J trend degree 1": {"preset": "improved", "trend_degree": 1},
     "improved, J trend degree 4": {"preset": "improved", "trend_degree": 4},
