@@ -141,6 +141,18 @@ def test_presets_and_their_errors():
     default = moli.identify(est, val, nmax=4)
     assert default.options["max_radius"] == 1.0
     assert all(st.stable for st in default.path if st.J < 1.0)
+    # the default's bound on candidates the fit alone would score: on this record four
+    # filters of the list (1, 2, 1) give an unstable model; those, and only those, score 1
+    e = est.remove_means()
+    z = np.concatenate([e.y, e.u], axis=1)
+    free = FilterScorer(z, (1, 2, 1), 1.0, 2.0, RegressionCache(z, 3), trend_degree=2)
+    J_free, (A, _, _) = free.score(default_omega())
+    unstable = np.max(np.abs(np.linalg.eigvals(A)), axis=1) >= 1.0
+    assert unstable.sum() == 4
+    bounded = FilterScorer(z, (1, 2, 1), 1.0, 2.0, RegressionCache(z, 3), max_radius=1.0, trend_degree=2)
+    J_bounded, _ = bounded.score(default_omega())
+    assert np.all(J_bounded[unstable] == 1.0) and np.all(J_free[unstable] < 1.0)
+    np.testing.assert_array_equal(J_bounded[~unstable], J_free[~unstable])
     assert moli.identify(est, val, nmax=4, max_radius="none").options["max_radius"] is None
 
 

@@ -17,16 +17,13 @@ from typing import Sequence
 
 import numpy as np
 
-from .data import stack_signals
-from .errors import IllConditionedWarning, OptionError
+from .errors import IllConditionedWarning
 from .estimation import COND_LIMIT, check_sample_count, realize, solve_batch
-from .filters import check_alpha, divisors
 from .model import StateSpaceModel
-from .recursive import BankRls
-from .structure import check_indices
+from .recursive import FixedFilterEstimator
 
 
-class ChunkedEstimator:
+class ChunkedEstimator(FixedFilterEstimator):
     """Whole-record batch estimate accumulated over chunks of any sizes.
 
     Parameters
@@ -55,21 +52,8 @@ class ChunkedEstimator:
     """
 
     def __init__(self, indices: Sequence[int], alpha: Sequence[float], m: int, Ts: float = 1.0) -> None:
-        self.indices = check_indices(indices, len(indices))
-        self.alpha = check_alpha(alpha)
-        if int(m) != m or m < 1:
-            raise OptionError(f"m (number of inputs) must be a positive integer, got {m!r}")
-        if not (np.isfinite(Ts) and Ts > 0):
-            raise OptionError(f"Ts must be positive and finite, got {Ts!r}")
-        self.m = int(m)
-        self.Ts = float(Ts)
-        self._alphas = divisors(self.alpha, self.indices)
-        self._bank = BankRls(self.indices, [self._alphas], self.m, 1.0, 1.0, np.inf)
-
-    @property
-    def samples(self) -> int:
-        """Number of samples absorbed so far."""
-        return self._bank.samples
+        # no forgetting, unit noise variance and no prior: the plain least-squares factor
+        super().__init__(indices, alpha, m, Ts, 1.0, 1.0, np.inf)
 
     def add(self, y: object, u: object) -> "ChunkedEstimator":
         """Absorb the next chunk of the record.
@@ -86,7 +70,7 @@ class ChunkedEstimator:
         ChunkedEstimator
             ``self``.
         """
-        self._bank.update(stack_signals(y, u, len(self.indices), self.m))
+        self._absorb(y, u)
         return self
 
     def model(self) -> StateSpaceModel:
@@ -113,10 +97,6 @@ class ChunkedEstimator:
                 IllConditionedWarning,
                 stacklevel=2,
             )
-        A, B, C = realize(thetas, [self._alphas], self.indices, self.m)
-        model = StateSpaceModel(
-            A[0], B[0], C[0], Ts=self.Ts, indices=self.indices, alpha=self.alpha,
-            info={"samples": self.samples},
-        )
+        model = self._model(*realize(thetas, [self._alphas], self.indices, self.m))
         model.warn_if_unstable(stacklevel=2)
         return model

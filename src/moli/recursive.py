@@ -133,7 +133,47 @@ class BankRls:
             rls.factor[r] = new_rls.factor[0]
 
 
-class RecursiveMoli:
+class FixedFilterEstimator:
+    """One list of indices and one filter, estimated from chunks fed to a square-root bank.
+
+    The common part of :class:`RecursiveMoli` and :class:`moli.chunked.ChunkedEstimator`:
+    it checks the structure, keeps the bank and builds the models of its estimates.
+    """
+
+    def __init__(
+        self, indices: Sequence[int], alpha: Sequence[float], m: int, Ts: float,
+        forgetting: float, noise_variance: float, p0: float,
+    ) -> None:
+        self.indices = check_indices(indices, len(indices))
+        self.alpha = check_alpha(alpha)
+        if int(m) != m or m < 1:
+            raise OptionError(f"m (number of inputs) must be a positive integer, got {m!r}")
+        check_options(forgetting, noise_variance, p0)
+        if not (np.isfinite(Ts) and Ts > 0):
+            raise OptionError(f"Ts must be positive and finite, got {Ts!r}")
+        self.m = int(m)
+        self.Ts = float(Ts)
+        self._alphas = divisors(self.alpha, self.indices)
+        self._bank = BankRls(
+            self.indices, [self._alphas], self.m, float(forgetting), float(noise_variance), float(p0)
+        )
+
+    @property
+    def samples(self) -> int:
+        """Number of samples absorbed so far."""
+        return self._bank.samples
+
+    def _absorb(self, y: object, u: object) -> None:
+        self._bank.update(stack_signals(y, u, len(self.indices), self.m))
+
+    def _model(self, A: np.ndarray, B: np.ndarray, C: np.ndarray) -> StateSpaceModel:
+        return StateSpaceModel(
+            A[0], B[0], C[0], Ts=self.Ts, indices=self.indices, alpha=self.alpha,
+            info={"samples": self.samples},
+        )
+
+
+class RecursiveMoli(FixedFilterEstimator):
     """Streaming MOLI identification with one filter: constant memory, model always current.
 
     Parameters
@@ -182,24 +222,7 @@ class RecursiveMoli:
         self, indices: Sequence[int], alpha: Sequence[float], m: int, *,
         forgetting: float = 1.0, noise_variance: float = 1.0, p0: float = 1e6, Ts: float = 1.0,
     ) -> None:
-        self.indices = check_indices(indices, len(indices))
-        self.alpha = check_alpha(alpha)
-        if int(m) != m or m < 1:
-            raise OptionError(f"m (number of inputs) must be a positive integer, got {m!r}")
-        check_options(forgetting, noise_variance, p0)
-        if not (np.isfinite(Ts) and Ts > 0):
-            raise OptionError(f"Ts must be positive and finite, got {Ts!r}")
-        self.m = int(m)
-        self.Ts = float(Ts)
-        self._bank = BankRls(
-            self.indices, [divisors(self.alpha, self.indices)], self.m,
-            float(forgetting), float(noise_variance), float(p0),
-        )
-
-    @property
-    def samples(self) -> int:
-        """Number of samples absorbed so far."""
-        return self._bank.samples
+        super().__init__(indices, alpha, m, Ts, forgetting, noise_variance, p0)
 
     def update(self, y_k: object, u_k: object) -> "RecursiveMoli":
         """Absorb one sample: outputs ``y_k`` (p,) and inputs ``u_k`` (m,)."""
@@ -220,7 +243,7 @@ class RecursiveMoli:
         RecursiveMoli
             ``self``.
         """
-        self._bank.update(stack_signals(y, u, len(self.indices), self.m))
+        self._absorb(y, u)
         return self
 
     @property
@@ -236,8 +259,4 @@ class RecursiveMoli:
     @property
     def model(self) -> StateSpaceModel:
         """The state-space model of the current estimate (observer-form coordinates)."""
-        A, B, C = self._bank.matrices()
-        return StateSpaceModel(
-            A[0], B[0], C[0], Ts=self.Ts, indices=self.indices, alpha=self.alpha,
-            info={"samples": self.samples},
-        )
+        return self._model(*self._bank.matrices())
