@@ -41,6 +41,17 @@ def _dominant_roots(wc: float, zeta: float, Ts: float) -> np.ndarray:
     return np.exp(a * np.array([-zeta + r, -zeta - r])).astype(complex)
 
 
+def _check_filter_options(indices: Sequence[int], Ts: float, s: float) -> tuple[int, ...]:
+    indices = tuple(int(v) for v in indices)
+    if not indices or min(indices) < 1:
+        raise FilterError(f"indices must be positive integers, got {indices}")
+    if not (np.isfinite(s) and s > 1):
+        raise FilterError(f"the spacing factor s must be > 1, got {s}")
+    if not (np.isfinite(Ts) and Ts > 0):
+        raise FilterError(f"Ts must be positive, got {Ts}")
+    return indices
+
+
 def filter_roots(
     wc: float, zeta: float, indices: Sequence[int], Ts: float = 1.0, s: float = 2.0
 ) -> np.ndarray:
@@ -48,15 +59,9 @@ def filter_roots(
 
     See :func:`filter_polynomial` for the parameters.
     """
-    indices = tuple(int(v) for v in indices)
-    if not indices or min(indices) < 1:
-        raise FilterError(f"indices must be positive integers, got {indices}")
+    indices = _check_filter_options(indices, Ts, s)
     if not (np.isfinite(wc) and wc > 0 and np.isfinite(zeta) and zeta > 0):
         raise FilterError(f"wc and zeta must be positive and finite, got wc={wc}, zeta={zeta}")
-    if not (np.isfinite(s) and s > 1):
-        raise FilterError(f"the spacing factor s must be > 1, got {s}")
-    if not (np.isfinite(Ts) and Ts > 0):
-        raise FilterError(f"Ts must be positive, got {Ts}")
     nbar = max(indices)
     if nbar == 1:
         return np.array([np.exp(-zeta * wc * Ts)], dtype=complex)
@@ -125,30 +130,27 @@ def check_alpha(alpha: Sequence[float]) -> np.ndarray:
     return coeffs
 
 
-def _poly(roots: np.ndarray, products: dict[bytes, np.ndarray] | None = None) -> np.ndarray:
-    """Real coefficients of the monic polynomial with these roots, exactly as ``np.poly``.
+def _poly(roots: np.ndarray) -> np.ndarray:
+    """Real coefficients of the monic polynomial with these roots, as ``np.poly``.
 
     The factors ``q - r`` are multiplied in the given order by the same convolutions
-    as ``np.poly``, so the coefficients agree to the last bit. ``products`` (keyed by
-    the leading roots' bytes) keeps every partial product: the root lists of one
-    filter and of its divisors mostly start with the same slow roots, so few
-    convolutions remain.
+    as ``np.poly``, without its checks and sorting.
     """
     dtype = roots.dtype             # real roots are multiplied in real arithmetic, as np.poly does
-    data, size = roots.tobytes(), dtype.itemsize
-    head = dtype.char.encode()
     coeffs = np.ones(1, dtype)
-    done = 0
-    if products is not None:
-        while done < roots.size and head + data[: size * (done + 1)] in products:
-            done += 1
-        if done:
-            coeffs = products[head + data[: size * done]]
-    values = roots.tolist()
-    for k in range(done, roots.size):
-        coeffs = np.convolve(coeffs, np.array([1, -values[k]], dtype=dtype))
-        if products is not None:
-            products[head + data[: size * (k + 1)]] = coeffs
+    for value in roots.tolist():
+        coeffs = np.convolve(coeffs, np.array([1, -value], dtype=dtype))
+    return np.real(coeffs).copy()
+
+
+def _poly_rows(roots: np.ndarray) -> np.ndarray:
+    """:func:`_poly` of each row of ``roots`` (R, k): real coefficients, shape (R, k + 1)."""
+    R, k = roots.shape
+    coeffs = np.zeros((R, k + 1), roots.dtype)
+    coeffs[:, 0] = 1.0
+    for i in range(k):
+        # multiply by (q - r_i): the convolution np.poly does, for every row at once
+        coeffs[:, 1 : i + 2] -= roots[:, i, None] * coeffs[:, : i + 1]
     return np.real(coeffs).copy()
 
 
@@ -188,19 +190,14 @@ def _select(groups: list[tuple], degree: int) -> list[tuple] | None:
     return None if budget else chosen
 
 
-def _pick_divisor(
-    roots: np.ndarray, degree: int, products: dict[bytes, np.ndarray] | None = None
-) -> np.ndarray:
-    """Coefficients of the divisor of the given degree chosen from ``roots`` by the root rule.
-
-    ``products`` is the cache of partial products of :func:`_poly`.
-    """
+def _pick_divisor(roots: np.ndarray, degree: int) -> np.ndarray:
+    """Coefficients of the divisor of the given degree chosen from ``roots`` by the root rule."""
     for tol in _REAL_TOLERANCES:
         chosen = _select(_root_groups(roots, tol), degree)
         if chosen is not None:
             values = [r for g in chosen for r in g]
             dtype = complex if any(len(g) == 2 for g in chosen) else float
-            return _poly(np.array(values, dtype=dtype), products)
+            return _poly(np.array(values, dtype=dtype))
     raise FilterError(
         f"alpha with roots {np.round(roots, 6).tolist()} has no real root, so it has no "
         f"real divisor of degree {degree}; build alpha with filter_polynomial(..., indices) "
@@ -262,7 +259,96 @@ def filter_divisors(
     Equivalent to ``divisors(filter_polynomial(wc, zeta, indices, Ts, s), indices)``
     but picks the roots directly, without a round trip through the coefficients.
     """
-    roots = filter_roots(wc, zeta, indices, Ts, s)
+    table = _divisor_table(filter_roots(wc, zeta, indices, Ts, s), indices)
+    return [table[l] for l in indices]
+
+
+def _divisor_table(roots: np.ndarray, indices: Indices) -> dict[int, np.ndarray]:
+    """The filter with these roots (degree ``max(indices)``) and its divisors, by degree."""
     nbar = roots.size
-    cache = {l: (_poly(roots) if l == nbar else _pick_divisor(roots, l)) for l in set(indices)}
-    return [cache[l] for l in indices]
+    return {l: (_poly(roots) if l == nbar else _pick_divisor(roots, l)) for l in set(indices)}
+
+
+
+def filter_rows(
+    etas: np.ndarray, indices: Indices, Ts: float = 1.0, s: float = 2.0
+) -> tuple[np.ndarray, dict[int, np.ndarray]]:
+    """``alpha`` and its divisors for many ``eta = (wc, zeta)`` at once.
+
+    The root rule of :func:`filter_polynomial` and :func:`filter_divisors`, computed
+    for all rows together (a filter search builds the filters of a whole grid of
+    candidates for each list of indices). Equal to the one-row functions up to
+    round-off.
+
+    Parameters
+    ----------
+    etas : ndarray, shape (R, 2)
+        Rows ``(wc, zeta)``, positive and finite.
+    indices : tuple of int
+    Ts, s : float
+        Sampling period and root spacing factor.
+
+    Returns
+    -------
+    alphas : ndarray, shape (R, max(indices) + 1)
+    divisors : dict
+        ``divisors[l]``, shape (R, l + 1), for every ``l`` in ``indices``.
+    """
+    etas = np.asarray(etas, float)
+    _check_filter_options(indices, Ts, s)
+    if etas.ndim != 2 or etas.shape[1] != 2 or not (np.all(np.isfinite(etas)) and np.all(etas > 0)):
+        raise FilterError("etas must be rows (wc, zeta) of positive, finite numbers")
+    nbar = max(indices)
+    wc, zeta = etas[:, 0], etas[:, 1]
+    if len(etas) == 1:                  # one filter: the one-row route has less overhead
+        single = _divisor_table(filter_roots(wc[0], zeta[0], indices, Ts, s), indices)
+        return single[nbar][None], {l: d[None] for l, d in single.items()}
+    over = zeta >= 1
+    needs_real = any(l % 2 == 1 and l < nbar for l in indices)
+    if nbar == 1:
+        roots = np.exp(-zeta * wc * Ts).astype(complex)[:, None]
+    else:
+        a = wc * Ts
+        spread = np.sqrt(np.abs(zeta**2 - 1))
+        pair = np.empty((len(etas), 2), complex)
+        pair[:, 0] = np.where(over, np.exp(a * (-zeta + spread)), np.exp(a * (-zeta + 1j * spread)))
+        pair[:, 1] = np.where(over, np.exp(a * (-zeta - spread)), np.conj(pair[:, 0]))
+        columns: list[np.ndarray] = []
+        while len(columns) + 2 <= nbar:
+            columns.extend(pair.T)
+            pair = pair**s
+        if len(columns) < nbar:
+            columns.append((np.abs(columns[-1]) ** s).astype(complex))
+        roots = np.column_stack(columns)
+        if needs_real and nbar % 2 == 0:
+            roots[~over, -2:] = np.abs(roots[~over, -1])[:, None]
+    divisors_ = {nbar: _poly_rows(roots)}
+    lower = sorted(set(indices) - {nbar})
+    if not lower:
+        return divisors_[nbar], divisors_
+    # zeta >= 1: every root real, the divisor takes the slowest ones. zeta < 1: conjugate
+    # pairs of decreasing modulus, then the real roots; rows whose pairs are so narrow
+    # (or so fast) that the rule might read them otherwise take the one-row route.
+    slowest = np.take_along_axis(roots.real, np.argsort(-np.abs(roots), axis=1, kind="stable"), axis=1)
+    n_pair_roots = 2 * (nbar // 2) - (2 if needs_real and nbar % 2 == 0 else 0)
+    heads = roots[:, :n_pair_roots]
+    moduli = np.abs(np.column_stack([heads[:, ::2], roots[:, n_pair_roots : n_pair_roots + 1]]))
+    paired = ~over & np.all(np.abs(heads.imag) > _REAL_TOLERANCES[0] * np.abs(heads), axis=1)
+    paired &= np.all(np.diff(moduli, axis=1) < 0, axis=1)
+    for l in lower:
+        out = np.empty((len(etas), l + 1))
+        if over.any():
+            out[over] = _poly_rows(slowest[over, :l])
+        if not paired.any():
+            pass
+        elif l % 2 == 0:
+            out[paired] = _poly_rows(roots[paired, :l])
+        elif l == 1:
+            out[paired] = _poly_rows(roots[paired, -1:].real)
+        else:          # the slowest real root (built last), then the slowest pairs
+            out[paired] = _poly_rows(np.column_stack([roots[paired, -1], roots[paired, : l - 1]]))
+        position = list(indices).index(l)
+        for r in np.flatnonzero(~over & ~paired):
+            out[r] = filter_divisors(wc[r], zeta[r], indices, Ts, s)[position]
+        divisors_[l] = out
+    return divisors_[nbar], divisors_

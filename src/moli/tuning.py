@@ -21,7 +21,7 @@ from scipy.signal import lfilter
 
 from .errors import OptionError
 from .estimation import _observer_form, fit_batch, realize, solve_batch
-from .filters import _pick_divisor, _poly, filter_divisors, filter_roots
+from .filters import filter_divisors, filter_rows
 from .simulation import simulate_batch
 from .structure import Indices
 from .validation import X0_CHOICES
@@ -143,31 +143,33 @@ class RegressionCache:
         self._thetas: dict[tuple[bytes, int, int], tuple[np.ndarray, float]] = {}
         # quotient maps of a batch of filters for one divisor degree (outputs share them)
         self._quotients: dict[tuple[tuple[bytes, ...], int], np.ndarray] = {}
-        self._filters: dict[tuple, tuple[np.ndarray, dict[int, np.ndarray], np.ndarray]] = {}
-        # partial products of filter roots, shared by every alpha and divisor built here
-        self._products: dict[bytes, np.ndarray] = {}
+        # filter polynomials by degree, per eta and root-rule key (see filters)
+        self._filters: dict[tuple, dict[int, np.ndarray]] = {}
         self.factorizations = 0
         self.solves = 0
 
     def filters(
-        self, wc: float, zeta: float, indices: Indices, Ts: float, s: float
-    ) -> tuple[np.ndarray, dict[int, np.ndarray]]:
-        """``alpha`` and its divisors by degree for ``eta = (wc, zeta)`` (cached).
+        self, etas: np.ndarray, indices: Indices, Ts: float, s: float
+    ) -> tuple[list[np.ndarray], list[list[np.ndarray]]]:
+        """``alpha`` and the divisors of ``indices`` for each row ``eta = (wc, zeta)`` (cached).
 
         The roots depend on ``indices`` only through ``max(indices)`` and whether an
         odd index below it needs a real root (see :mod:`moli.filters`): that is the key.
+        Filters not seen yet are built together by :func:`moli.filters.filter_rows`.
         """
         nbar = max(indices)
         needs_real = any(l % 2 == 1 and l < nbar for l in indices)
-        key = (wc, zeta, Ts, s, nbar, needs_real)
-        if key not in self._filters:
-            roots = filter_roots(wc, zeta, indices, Ts, s)
-            alpha = _poly(roots, self._products)
-            self._filters[key] = (alpha, {nbar: alpha}, roots)
-        alpha, divs, roots = self._filters[key]
-        for l in set(indices) - divs.keys():
-            divs[l] = _pick_divisor(roots, l, self._products)
-        return alpha, divs
+        keys = [(w, zeta, Ts, s, nbar, needs_real) for w, zeta in np.asarray(etas, float).tolist()]
+        degrees = set(indices)
+        todo = [i for i, k in enumerate(keys) if not degrees <= self._filters.get(k, {}).keys()]
+        if todo:
+            _, built = filter_rows(np.asarray(etas, float)[todo], indices, Ts, s)
+            for row, i in enumerate(todo):
+                known = self._filters.setdefault(keys[i], {})
+                for l, coeffs in built.items():
+                    known.setdefault(l, coeffs[row])     # an alpha already used keeps its bytes
+        found = [self._filters[k] for k in keys]
+        return [f[nbar] for f in found], [[f[l] for l in indices] for f in found]
 
     def factor(self, alphas: Sequence[np.ndarray]) -> list[np.ndarray]:
         """Triangular factors of ``[xi, y]`` for each filter polynomial (batched, cached)."""
@@ -193,9 +195,12 @@ class RegressionCache:
                     np.copyto(columns[i, : c * nbar].reshape(c, nbar, rows), delayed)
                 columns[:, c * nbar :] = signals[: self.extra, nbar:]
                 lwork = _qr_workspace(rows, cols)
+                below = _below_diagonal(min(rows, cols), cols)
                 for (k, _), matrix in zip(items, columns):
                     factored = scipy.linalg.lapack.dgeqrf(matrix.T, lwork=lwork, overwrite_a=True)[0]
-                    self._factors[k] = np.triu(factored[: min(rows, cols)])
+                    factor = np.array(factored[: min(rows, cols)], order="C")
+                    factor[below] = 0.0          # the reflectors LAPACK leaves below R
+                    self._factors[k] = factor
                 self.factorizations += len(items)
         return [self._factors[k] for k in keys]
 
@@ -299,6 +304,12 @@ def _qr_workspace(rows: int, cols: int) -> int:
     """
     work = scipy.linalg.lapack.dgeqrf(np.empty((rows, cols), order="F"), lwork=-1)[2]
     return max(int(work[0]), 1)
+
+
+@functools.lru_cache(maxsize=None)
+def _below_diagonal(rows: int, cols: int) -> np.ndarray:
+    """Boolean mask of the entries below the diagonal of a ``rows x cols`` matrix."""
+    return np.tri(rows, cols, -1, dtype=bool)
 
 
 @functools.lru_cache(maxsize=None)
@@ -522,11 +533,7 @@ class FilterScorer:
             alphas = [filter_divisors(w, zeta, self.indices, self.Ts, self.s) for w, zeta in etas]
             A, B, C, _ = fit_batch(self.z, self.indices, alphas)
             return A, B, C
-        full, parts = [], []
-        for w, zeta in etas:
-            alpha, divs = self.cache.filters(float(w), float(zeta), self.indices, self.Ts, self.s)
-            full.append(alpha)
-            parts.append([divs[l] for l in self.indices])
+        full, parts = self.cache.filters(etas, self.indices, self.Ts, self.s)
         thetas, _ = self.cache.thetas(full, parts, self.indices)
         m = self.z.shape[1] - p
         if not self.cache.feedthrough:
