@@ -82,3 +82,36 @@ def test_bad_filter_parameters():
         moli.filter_polynomial(-1.0, 0.7, [2])
     with pytest.raises(moli.FilterError):
         moli.filter_polynomial(1.0, 0.7, [2], s=1.0)
+
+
+# filter_rows builds a whole candidate batch with vector arithmetic; it must follow the
+# one-row root rule exactly, including zeta = 1 (a double root), zetas just below 1
+# (pairs the rule may read as real roots: those rows take the one-row route) and slow
+# filters whose fast roots underflow. Coefficients are sums of up to C(7, 3) = 35
+# products of numbers below 1, so 1e-12 is a few hundred ulps of the largest.
+@settings(max_examples=200, deadline=None)
+@given(
+    indices=indices_lists,
+    wcs=st.lists(st.floats(1e-3, 3.0), min_size=1, max_size=6),
+    zetas=st.lists(st.sampled_from([0.3, 0.6, 0.7, 1.0 - 1e-13, 1.0, 1.1, 2.5]), min_size=6, max_size=6),
+    Ts=st.sampled_from([0.1, 1.0, 10.0]),
+    s=st.floats(1.2, 4.0),
+)
+def test_filter_rows_match_the_one_row_rule(indices, wcs, zetas, Ts, s):
+    from moli.filters import filter_divisors, filter_rows
+
+    etas = np.column_stack([wcs, zetas[: len(wcs)]])
+    alphas, divisors = filter_rows(etas, tuple(indices), Ts, s)
+    for r, (wc, zeta) in enumerate(etas):
+        np.testing.assert_allclose(alphas[r], moli.filter_polynomial(wc, zeta, indices, Ts, s), rtol=0, atol=1e-12)
+        for l, alpha_j in zip(indices, filter_divisors(wc, zeta, tuple(indices), Ts, s)):
+            np.testing.assert_allclose(divisors[l][r], alpha_j, rtol=0, atol=1e-12)
+
+
+def test_filter_rows_rejects_bad_candidates():
+    from moli.filters import filter_rows
+
+    with pytest.raises(moli.FilterError, match="positive"):
+        filter_rows(np.array([[0.5, 0.7], [-1.0, 0.7]]), (2, 1))
+    with pytest.raises(moli.FilterError, match="spacing"):
+        filter_rows(np.array([[0.5, 0.7]]), (2, 1), s=1.0)
