@@ -62,21 +62,37 @@ def filter_roots(
     indices = _check_filter_options(indices, Ts, s)
     if not (np.isfinite(wc) and wc > 0 and np.isfinite(zeta) and zeta > 0):
         raise FilterError(f"wc and zeta must be positive and finite, got wc={wc}, zeta={zeta}")
+    return _roots_rows(np.array([[wc, zeta]], float), indices, Ts, s)[0]
+
+
+def _roots_rows(etas: np.ndarray, indices: Indices, Ts: float, s: float) -> np.ndarray:
+    """Roots (R, max(indices)) of the filters of the rows ``(wc, zeta)``, by the root rule."""
     nbar = max(indices)
+    wc, zeta = etas[:, 0], etas[:, 1]
     if nbar == 1:
-        return np.array([np.exp(-zeta * wc * Ts)], dtype=complex)
-    roots: list[complex] = []
-    pair = _dominant_roots(wc, zeta, Ts)
-    while len(roots) + 2 <= nbar:
-        roots.extend(pair)
+        return np.exp(-zeta * wc * Ts).astype(complex)[:, None]
+    a = wc * Ts
+    over = zeta >= 1
+    spread = np.sqrt(np.abs(zeta**2 - 1))
+    pair = np.empty((len(etas), 2), complex)
+    pair[:, 0] = np.where(over, np.exp(a * (-zeta + spread)), np.exp(a * (-zeta + 1j * spread)))
+    pair[:, 1] = np.where(over, np.exp(a * (-zeta - spread)), np.conj(pair[:, 0]))
+    columns: list[np.ndarray] = []
+    while len(columns) + 2 <= nbar:
+        columns.extend(pair.T)
         pair = pair**s
-    if len(roots) < nbar:
-        roots.append(complex(abs(roots[-1]) ** s))
-    needs_real = any(l % 2 == 1 and l < nbar for l in indices)
-    if needs_real and nbar % 2 == 0 and zeta < 1:
-        radius = abs(roots[-1])
-        roots[-2:] = [complex(radius), complex(radius)]
-    return np.array(roots)
+    if len(columns) < nbar:
+        columns.append((np.abs(columns[-1]) ** s).astype(complex))
+    roots = np.column_stack(columns)
+    if _needs_real(indices) and nbar % 2 == 0:
+        roots[~over, -2:] = np.abs(roots[~over, -1])[:, None]
+    return roots
+
+
+def _needs_real(indices: Indices) -> bool:
+    """Whether an odd index below the largest needs alpha to carry a real root."""
+    nbar = max(indices)
+    return any(l % 2 == 1 and l < nbar for l in indices)
 
 
 def filter_polynomial(
@@ -295,33 +311,14 @@ def filter_rows(
         ``divisors[l]``, shape (R, l + 1), for every ``l`` in ``indices``.
     """
     etas = np.asarray(etas, float)
-    _check_filter_options(indices, Ts, s)
+    indices = _check_filter_options(indices, Ts, s)
     if etas.ndim != 2 or etas.shape[1] != 2 or not (np.all(np.isfinite(etas)) and np.all(etas > 0)):
         raise FilterError("etas must be rows (wc, zeta) of positive, finite numbers")
     nbar = max(indices)
-    wc, zeta = etas[:, 0], etas[:, 1]
+    roots = _roots_rows(etas, indices, Ts, s)
     if len(etas) == 1:                  # one filter: the one-row route has less overhead
-        single = _divisor_table(filter_roots(wc[0], zeta[0], indices, Ts, s), indices)
+        single = _divisor_table(roots[0], indices)
         return single[nbar][None], {l: d[None] for l, d in single.items()}
-    over = zeta >= 1
-    needs_real = any(l % 2 == 1 and l < nbar for l in indices)
-    if nbar == 1:
-        roots = np.exp(-zeta * wc * Ts).astype(complex)[:, None]
-    else:
-        a = wc * Ts
-        spread = np.sqrt(np.abs(zeta**2 - 1))
-        pair = np.empty((len(etas), 2), complex)
-        pair[:, 0] = np.where(over, np.exp(a * (-zeta + spread)), np.exp(a * (-zeta + 1j * spread)))
-        pair[:, 1] = np.where(over, np.exp(a * (-zeta - spread)), np.conj(pair[:, 0]))
-        columns: list[np.ndarray] = []
-        while len(columns) + 2 <= nbar:
-            columns.extend(pair.T)
-            pair = pair**s
-        if len(columns) < nbar:
-            columns.append((np.abs(columns[-1]) ** s).astype(complex))
-        roots = np.column_stack(columns)
-        if needs_real and nbar % 2 == 0:
-            roots[~over, -2:] = np.abs(roots[~over, -1])[:, None]
     divisors_ = {nbar: _poly_rows(roots)}
     lower = sorted(set(indices) - {nbar})
     if not lower:
@@ -329,26 +326,24 @@ def filter_rows(
     # zeta >= 1: every root real, the divisor takes the slowest ones. zeta < 1: conjugate
     # pairs of decreasing modulus, then the real roots; rows whose pairs are so narrow
     # (or so fast) that the rule might read them otherwise take the one-row route.
+    over = etas[:, 1] >= 1
     slowest = np.take_along_axis(roots.real, np.argsort(-np.abs(roots), axis=1, kind="stable"), axis=1)
-    n_pair_roots = 2 * (nbar // 2) - (2 if needs_real and nbar % 2 == 0 else 0)
+    n_pair_roots = 2 * (nbar // 2) - (2 if _needs_real(indices) and nbar % 2 == 0 else 0)
     heads = roots[:, :n_pair_roots]
     moduli = np.abs(np.column_stack([heads[:, ::2], roots[:, n_pair_roots : n_pair_roots + 1]]))
     paired = ~over & np.all(np.abs(heads.imag) > _REAL_TOLERANCES[0] * np.abs(heads), axis=1)
     paired &= np.all(np.diff(moduli, axis=1) < 0, axis=1)
     for l in lower:
-        out = np.empty((len(etas), l + 1))
-        if over.any():
-            out[over] = _poly_rows(slowest[over, :l])
-        if not paired.any():
-            pass
-        elif l % 2 == 0:
-            out[paired] = _poly_rows(roots[paired, :l])
+        if l % 2 == 0:
+            picked = roots[paired, :l]
         elif l == 1:
-            out[paired] = _poly_rows(roots[paired, -1:].real)
+            picked = roots[paired, -1:].real
         else:          # the slowest real root (built last), then the slowest pairs
-            out[paired] = _poly_rows(np.column_stack([roots[paired, -1], roots[paired, : l - 1]]))
-        position = list(indices).index(l)
+            picked = np.column_stack([roots[paired, -1], roots[paired, : l - 1]])
+        out = np.empty((len(etas), l + 1))
+        out[over] = _poly_rows(slowest[over, :l])
+        out[paired] = _poly_rows(picked)
         for r in np.flatnonzero(~over & ~paired):
-            out[r] = filter_divisors(wc[r], zeta[r], indices, Ts, s)[position]
+            out[r] = _divisor_table(roots[r], indices)[l]
         divisors_[l] = out
     return divisors_[nbar], divisors_

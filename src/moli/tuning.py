@@ -21,7 +21,7 @@ from scipy.signal import lfilter
 
 from .errors import OptionError
 from .estimation import _observer_form, fit_batch, realize, solve_batch
-from .filters import filter_divisors, filter_rows
+from .filters import _needs_real, filter_divisors, filter_rows
 from .simulation import simulate_batch
 from .structure import Indices
 from .validation import X0_CHOICES
@@ -158,8 +158,7 @@ class RegressionCache:
         Filters not seen yet are built together by :func:`moli.filters.filter_rows`.
         """
         nbar = max(indices)
-        needs_real = any(l % 2 == 1 and l < nbar for l in indices)
-        keys = [(w, zeta, Ts, s, nbar, needs_real) for w, zeta in np.asarray(etas, float).tolist()]
+        keys = [(w, zeta, Ts, s, nbar, _needs_real(indices)) for w, zeta in np.asarray(etas, float).tolist()]
         degrees = set(indices)
         todo = [i for i, k in enumerate(keys) if not degrees <= self._filters.get(k, {}).keys()]
         if todo:
