@@ -4,7 +4,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import moli
-from moli.filters import filter_roots
+from moli.filters import filter_divisors, filter_roots, filter_rows
 
 indices_lists = st.lists(st.integers(1, 7), min_size=1, max_size=4)
 
@@ -98,8 +98,6 @@ def test_bad_filter_parameters():
     s=st.floats(1.2, 4.0),
 )
 def test_filter_rows_match_the_one_row_rule(indices, wcs, zetas, Ts, s):
-    from moli.filters import filter_divisors, filter_rows
-
     etas = np.column_stack([wcs, zetas[: len(wcs)]])
     alphas, divisors = filter_rows(etas, tuple(indices), Ts, s)
     for r, (wc, zeta) in enumerate(etas):
@@ -109,8 +107,6 @@ def test_filter_rows_match_the_one_row_rule(indices, wcs, zetas, Ts, s):
 
 
 def test_filter_rows_rejects_bad_candidates():
-    from moli.filters import filter_rows
-
     with pytest.raises(moli.FilterError, match="positive"):
         filter_rows(np.array([[0.5, 0.7], [-1.0, 0.7]]), (2, 1))
     with pytest.raises(moli.FilterError, match="spacing"):

@@ -32,15 +32,6 @@ from .structure import Indices
 _REAL_TOLERANCES = (1e-6, 1e-3, 1e-2, 5e-2)
 
 
-def _dominant_roots(wc: float, zeta: float, Ts: float) -> np.ndarray:
-    a = wc * Ts
-    if zeta < 1:
-        z = np.exp(a * (-zeta + 1j * np.sqrt(1 - zeta**2)))
-        return np.array([z, np.conj(z)])
-    r = np.sqrt(zeta**2 - 1)
-    return np.exp(a * np.array([-zeta + r, -zeta - r])).astype(complex)
-
-
 def _check_filter_options(indices: Sequence[int], Ts: float, s: float) -> tuple[int, ...]:
     indices = tuple(int(v) for v in indices)
     if not indices or min(indices) < 1:
@@ -283,7 +274,6 @@ def _divisor_table(roots: np.ndarray, indices: Indices) -> dict[int, np.ndarray]
     """The filter with these roots (degree ``max(indices)``) and its divisors, by degree."""
     nbar = roots.size
     return {l: (_poly(roots) if l == nbar else _pick_divisor(roots, l)) for l in set(indices)}
-
 
 
 def filter_rows(

@@ -157,12 +157,13 @@ class RegressionCache:
         odd index below it needs a real root (see :mod:`moli.filters`): that is the key.
         Filters not seen yet are built together by :func:`moli.filters.filter_rows`.
         """
-        nbar = max(indices)
-        keys = [(w, zeta, Ts, s, nbar, _needs_real(indices)) for w, zeta in np.asarray(etas, float).tolist()]
+        etas = np.asarray(etas, float)
+        nbar, needs_real = max(indices), _needs_real(indices)
+        keys = [(w, zeta, Ts, s, nbar, needs_real) for w, zeta in etas.tolist()]
         degrees = set(indices)
         todo = [i for i, k in enumerate(keys) if not degrees <= self._filters.get(k, {}).keys()]
         if todo:
-            _, built = filter_rows(np.asarray(etas, float)[todo], indices, Ts, s)
+            _, built = filter_rows(etas[todo], indices, Ts, s)
             for row, i in enumerate(todo):
                 known = self._filters.setdefault(keys[i], {})
                 for l, coeffs in built.items():
