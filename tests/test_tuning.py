@@ -1,4 +1,7 @@
-"""Filter scoring: shared factorizations, feedthrough, stability bound, trend-blind J, zoom search, presets."""
+"""Filter scoring: shared factorizations, feedthrough, stability bound, trend-blind J, zoom search,
+joint tuning of several lists, presets."""
+
+from unittest import mock
 
 import numpy as np
 import pytest
@@ -7,7 +10,10 @@ from hypothesis import strategies as st
 
 import moli
 from moli.errors import OptionError
-from moli.tuning import FilterScorer, RegressionCache, default_omega, error_ratio, grid, tune_filter
+import moli.tuning
+from moli.tuning import (
+    FilterScorer, RegressionCache, default_omega, error_ratio, grid, score_lists, tune_filter, tune_filters,
+)
 
 
 def _random_system(n, p, m, seed, radius=0.9):
@@ -197,3 +203,49 @@ def test_trend_degree_zero_is_the_papers_J_and_bad_degrees_raise():
         with pytest.raises(OptionError, match="trend_degree"):
             moli.identify(est, val, nmax=4, trend_degree=bad)
     assert moli.identify(est, val, nmax=4).options["trend_degree"] == 2
+
+
+_JOINT_DATA = _data(*_random_system(5, 3, 2, seed=11), N=300, noise=0.1)
+
+
+@settings(max_examples=12, deadline=None)
+@given(
+    lists=st.lists(st.tuples(st.integers(1, 4), st.integers(1, 4), st.integers(1, 4)), min_size=1, max_size=5),
+    method=st.sampled_from(["grid", "random", "zoom"]),
+    feedthrough=st.sampled_from([False, "auto"]),
+    chunked=st.booleans(),
+)
+def test_joint_tuning_gives_each_list_its_own_result(lists, method, feedthrough, chunked):
+    z = _JOINT_DATA
+    omega = grid(np.geomspace(0.1, 1.2, 3), [0.6, 1.1])
+
+    def scorers(cache):
+        return [FilterScorer(z, ix, 1.0, 2.0, cache, max_radius=1.0, trend_degree=2) for ix in lists]
+
+    alone = [tune_filter(sc, omega, method, 2, seed) for seed, sc in enumerate(scorers(RegressionCache(z, 3, feedthrough)))]
+    # a batch limit of one value puts every list in a chunk of its own; the default joins
+    # them all (5 lists of 6 candidates, 300 samples, 3 outputs: 27,000 values)
+    limit = 1 if chunked else moli.tuning.JOINT_BATCH_VALUES
+    with mock.patch.object(moli.tuning, "JOINT_BATCH_VALUES", limit):
+        joint = tune_filters(scorers(RegressionCache(z, 3, feedthrough)), omega, method, 2, range(len(lists)))
+    for a, b in zip(alone, joint):
+        # the same problems, stacked differently: LAPACK and the products work matrix by
+        # matrix, so the results agree to the last bits (1e-12 leaves room for the BLAS)
+        np.testing.assert_allclose(b.J, a.J, rtol=1e-12, atol=1e-14)
+        np.testing.assert_allclose(b.eta, a.eta, rtol=1e-12)
+        np.testing.assert_allclose(b.A, a.A, rtol=1e-9, atol=1e-12)
+        assert b.evaluations == a.evaluations
+
+
+def test_lists_scored_together_must_share_record_and_criterion():
+    z = _data(*_random_system(4, 2, 2, seed=3), noise=0.1)
+    cache = RegressionCache(z, 2)
+    eta = default_omega()[:2]
+    with pytest.raises(OptionError, match="share"):
+        score_lists([FilterScorer(z, (1, 2), 1.0, 2.0, cache), FilterScorer(z, (2, 1), 1.0, 2.0, cache, trend_degree=1)],
+                    [eta, eta])
+    with pytest.raises(OptionError, match="share"):
+        score_lists([FilterScorer(z, (1, 2), 1.0, 2.0, cache), FilterScorer(z.copy(), (2, 1), 1.0, 2.0, cache)],
+                    [eta, eta])
+    with pytest.raises(OptionError, match="one seed per scorer"):
+        tune_filters([FilterScorer(z, (1, 2), 1.0, 2.0, cache)], eta, "grid", 0, [1, 2])

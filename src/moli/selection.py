@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -14,7 +14,7 @@ from .estimation import check_sample_count
 from .filters import filter_polynomial
 from .model import StateSpaceModel
 from .structure import Indices, compositions, raised
-from .tuning import FilterScorer, RegressionCache, TuningResult, tune_filter
+from .tuning import FilterScorer, RegressionCache, tune_filters
 from .validation import compare
 
 
@@ -37,7 +37,8 @@ class PathStep:
         Validation VAF per output, percent (simulation; initial state as requested).
     model : StateSpaceModel
     seconds : float
-        Wall time spent tuning, estimating and validating this list.
+        Wall time spent tuning, estimating and validating this list (lists tuned
+        together each count an equal share of the joint time).
     """
 
     indices: Indices
@@ -127,36 +128,52 @@ class StructureSearch:
         With ``validate=False`` the step's ``vaf`` is left empty (NaN) until a later
         call validates it: the greedy path validates only the lists it keeps.
         """
-        if indices in self._cache:
-            step = self._cache[indices]
+        return self.fit_many([indices], validate)[0]
+
+    def fit_many(self, lists: Sequence[Indices], validate: bool = True) -> list[PathStep]:
+        """:meth:`fit` for several lists; those not cached yet are tuned together.
+
+        Joint tuning (:func:`moli.tuning.tune_filters`) gives each list the model it
+        gets alone; each step's ``seconds`` is then an equal share of the joint time.
+        """
+        todo = [ix for ix in dict.fromkeys(lists) if ix not in self._cache]
+        if todo:
+            self._tune(todo)
+        steps = [self._cache[ix] for ix in lists]
+        for step in steps:
             if validate and np.isnan(step.vaf).any():
+                started = time.perf_counter()
                 step.vaf = compare(step.model, self.validation, self.x0).vaf
-            return step
+                step.seconds += time.perf_counter() - started
+        return steps
+
+    def _tune(self, lists: list[Indices]) -> None:
         start = time.perf_counter()
         est = self.estimation
-        scorer = FilterScorer(
-            self._z, indices, est.Ts, self.s, self._regressions, self.criterion_x0, self.max_radius,
-            self.trend_degree,
-        )
-        tuned: TuningResult = tune_filter(
-            scorer, self.omega, self.tuning, self.iterations, np.random.default_rng([self.seed, *indices])
-        )
-        wc, zeta = tuned.eta
-        model = StateSpaceModel(
-            tuned.A, tuned.B, tuned.C, tuned.D, Ts=est.Ts, output_names=est.output_names,
-            input_names=est.input_names, indices=indices,
-            alpha=filter_polynomial(wc, zeta, indices, est.Ts, self.s),
-            y_offset=est.y_offset, u_offset=est.u_offset,
-            info={"wc": float(wc), "zeta": float(zeta), "s": self.s, "J": tuned.J,
-                  "J_barycenter": tuned.J_barycenter, "evaluations": tuned.evaluations},
-        )
-        vaf = compare(model, self.validation, self.x0).vaf if validate else np.full(est.p, np.nan)
-        step = PathStep(
-            indices=indices, order=sum(indices), J=tuned.J, J_barycenter=tuned.J_barycenter,
-            eta=tuned.eta, vaf=vaf, model=model, seconds=time.perf_counter() - start,
-        )
-        self._cache[indices] = step
-        return step
+        scorers = [
+            FilterScorer(
+                self._z, indices, est.Ts, self.s, self._regressions, self.criterion_x0,
+                self.max_radius, self.trend_degree,
+            )
+            for indices in lists
+        ]
+        seeds = [np.random.default_rng([self.seed, *indices]) for indices in lists]
+        tuned = tune_filters(scorers, self.omega, self.tuning, self.iterations, seeds)
+        share = (time.perf_counter() - start) / len(lists)
+        for indices, result in zip(lists, tuned):
+            wc, zeta = result.eta
+            model = StateSpaceModel(
+                result.A, result.B, result.C, result.D, Ts=est.Ts, output_names=est.output_names,
+                input_names=est.input_names, indices=indices,
+                alpha=filter_polynomial(wc, zeta, indices, est.Ts, self.s),
+                y_offset=est.y_offset, u_offset=est.u_offset,
+                info={"wc": float(wc), "zeta": float(zeta), "s": self.s, "J": result.J,
+                      "J_barycenter": result.J_barycenter, "evaluations": result.evaluations},
+            )
+            self._cache[indices] = PathStep(
+                indices=indices, order=sum(indices), J=result.J, J_barycenter=result.J_barycenter,
+                eta=result.eta, vaf=np.full(est.p, np.nan), model=model, seconds=share,
+            )
 
 
 def greedy_path(
@@ -186,7 +203,7 @@ def greedy_path(
         candidates = [c for c in raised(path[-1].indices) if search.feasible(c)]
         if not candidates:
             break
-        steps = [search.fit(c, validate=False) for c in candidates]
+        steps = search.fit_many(candidates, validate=False)
         path.append(search.fit(min(steps, key=lambda st: st.J).indices))
         if progress:
             progress(path[-1])
@@ -195,7 +212,7 @@ def greedy_path(
 
 def exhaustive(search: StructureSearch, order: int) -> list[PathStep]:
     """Fit every list of indices of the given McMillan degree (``C(n-1, p-1)`` lists)."""
-    return [search.fit(c) for c in compositions(order, search.estimation.p) if search.feasible(c)]
+    return search.fit_many([c for c in compositions(order, search.estimation.p) if search.feasible(c)])
 
 
 def select_order(path: list[PathStep], tolerance: float = 1.0) -> int:

@@ -40,6 +40,11 @@ MU_SCALE = 40.0
 # The paper's evaporator grid (T = 1): wc = 0.02*pi ... 0.3548*pi, log-spaced.
 PAPER_ZETAS = (0.6, 0.7, 1.1)
 PAPER_WCS_PER_TS = tuple(0.02 * np.pi * 10 ** (0.25 * k) for k in range(6))
+# Lists scored together (score_lists) share a simulation batch of at most this many
+# simulated values (1 MB): that saves the per-call cost of many small batches, while
+# larger batches leave the processor's cache (glassfurnace's six lists of 18 models,
+# 3 MB, scored 20 % slower together than one by one).
+JOINT_BATCH_VALUES = 2**17
 
 
 def default_omega(Ts: float = 1.0) -> np.ndarray:
@@ -217,37 +222,55 @@ class RegressionCache:
         cond : ndarray, shape (R,)
             Worst condition estimate over the outputs.
         """
-        R = len(alphas)
-        c = self.z.shape[1]
-        extra_u = c - self.p if self.feedthrough else 0
+        self.solve([(alphas, divisors_, indices)])
         keys = [a.tobytes() for a in alphas]
-        factors = self.factor(alphas)
-        stacked = None          # factors and filters as arrays, once an output needs a solve
         thetas = []
-        cond = np.ones(R)
+        cond = np.ones(len(alphas))
         for j, l in enumerate(indices):
-            missing = [r for r in range(R) if (keys[r], j, l) not in self._thetas]
-            if missing:
-                if stacked is None:
-                    stacked = np.stack(factors), np.stack(alphas)
-                rows = missing if len(missing) < R else slice(None)
-                batch = (tuple(keys[r] for r in missing), l)
-                if batch not in self._quotients:
-                    divs = np.stack([divisors_[r][j] for r in missing])
-                    self._quotients[batch] = _quotient_map(stacked[1][rows], divs)
-                small, rhs = _small_problems(stacked[0][rows], self._quotients[batch], c, self.p, j, extra_u)
-                if self.feedthrough == "auto":
-                    theta, cnd = self._solve_tested(small, rhs, alphas[0].size - 1)
-                else:
-                    theta, cnd = solve_batch(small, rhs)
-                for i, r in enumerate(missing):
-                    self._thetas[(keys[r], j, l)] = (theta[i], float(cnd[i]))
-                self.solves += len(missing)
             solved = [self._thetas[(k, j, l)] for k in keys]
             thetas.append(np.array([t for t, _ in solved]))
             cond = np.fmax(cond, [cr for _, cr in solved])      # NaN estimates leave cond as it is
         return thetas, cond
 
+    def solve(
+        self, batches: Sequence[tuple[Sequence[np.ndarray], Sequence[Sequence[np.ndarray]], Indices]]
+    ) -> None:
+        """Solve and cache the per-output problems of several batches not solved yet.
+
+        Each batch is ``(alphas, divisors, indices)`` as :meth:`thetas` takes it. The
+        factors of all the filters are computed together, and the problems of one
+        shape (filter degree, output, index) are solved together whichever batch
+        they come from.
+        """
+        groups: dict[tuple[int, int, int], dict[bytes, tuple[np.ndarray, np.ndarray]]] = {}
+        for alphas, divisors_, indices in batches:
+            for alpha, divs in zip(alphas, divisors_):
+                key = alpha.tobytes()
+                for j, l in enumerate(indices):
+                    if (key, j, l) not in self._thetas:
+                        groups.setdefault((alpha.size - 1, j, l), {}).setdefault(key, (alpha, divs[j]))
+        if not groups:
+            return
+        needed = {k: a for members in groups.values() for k, (a, _) in members.items()}
+        factors = dict(zip(needed, self.factor(list(needed.values()))))
+        c = self.z.shape[1]
+        extra_u = c - self.p if self.feedthrough else 0
+        for (nbar, j, l), members in groups.items():
+            batch = (tuple(members), l)
+            if batch not in self._quotients:
+                self._quotients[batch] = _quotient_map(
+                    np.stack([a for a, _ in members.values()]), np.stack([d for _, d in members.values()])
+                )
+            small, rhs = _small_problems(
+                np.stack([factors[k] for k in members]), self._quotients[batch], c, self.p, j, extra_u
+            )
+            if self.feedthrough == "auto":
+                theta, cnd = self._solve_tested(small, rhs, nbar)
+            else:
+                theta, cnd = solve_batch(small, rhs)
+            for i, k in enumerate(members):
+                self._thetas[(k, j, l)] = (theta[i], float(cnd[i]))
+            self.solves += len(members)
 
     def _solve_tested(
         self, small: np.ndarray, rhs: np.ndarray, nbar: int
@@ -528,13 +551,16 @@ class FilterScorer:
 
     def fit(self, etas: np.ndarray) -> tuple[np.ndarray, ...]:
         """The batch of models ``(A, B, C)`` (and ``D`` with feedthrough) for each candidate."""
-        p = len(self.indices)
         if self.cache is None:
             alphas = [filter_divisors(w, zeta, self.indices, self.Ts, self.s) for w, zeta in etas]
             A, B, C, _ = fit_batch(self.z, self.indices, alphas)
             return A, B, C
-        full, parts = self.cache.filters(etas, self.indices, self.Ts, self.s)
+        return self._models(*self.cache.filters(etas, self.indices, self.Ts, self.s))
+
+    def _models(self, full: list[np.ndarray], parts: list[list[np.ndarray]]) -> tuple[np.ndarray, ...]:
+        """The models of the filters ``full`` (with divisors ``parts``) from the cache's solutions."""
         thetas, _ = self.cache.thetas(full, parts, self.indices)
+        p = len(self.indices)
         m = self.z.shape[1] - p
         if not self.cache.feedthrough:
             return realize(thetas, parts, self.indices, m)
@@ -542,7 +568,10 @@ class FilterScorer:
 
     def score(self, etas: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
         """J of each candidate and the batch of fitted models ``(A, B, C[, D])``."""
-        matrices = self.fit(etas)
+        return score_lists([self], [etas])[0]
+
+    def criterion(self, matrices: tuple[np.ndarray, ...]) -> np.ndarray:
+        """J of a batch of models ``(A, B, C[, D])`` on this scorer's record."""
         A, B, C = matrices[:3]
         yhat = simulate_batch(A, B, C, self.u)
         if len(matrices) == 4:
@@ -553,8 +582,75 @@ class FilterScorer:
         if self.max_radius is not None:
             radius = np.max(np.abs(np.linalg.eigvals(A)), axis=1)
             ratio[radius >= self.max_radius] = 1.0
-        self.evaluations += len(etas)
-        return ratio.mean(axis=1), matrices
+        return ratio.mean(axis=1)
+
+
+def score_lists(
+    scorers: Sequence[FilterScorer], etas: Sequence[np.ndarray]
+) -> list[tuple[np.ndarray, tuple[np.ndarray, ...]]]:
+    """:meth:`FilterScorer.score` for several lists of indices at once.
+
+    The models of lists of the same order share one simulation batch (up to
+    :data:`JOINT_BATCH_VALUES` simulated values), which saves the per-call cost of
+    the many small batches a structure search scores (one barycenter per list).
+
+    Parameters
+    ----------
+    scorers : sequence of FilterScorer
+        Scorers of one record, cache and criterion (``x0``, ``max_radius``,
+        ``trend_degree``).
+    etas : sequence of ndarray, shape (R_i, 2)
+        Candidates ``(wc, zeta)`` of each scorer.
+
+    Returns
+    -------
+    list of (ndarray, tuple of ndarray)
+        Each scorer's J and models, as :meth:`FilterScorer.score` returns them.
+    """
+    first = scorers[0]
+    for other in scorers[1:]:
+        if other.z is not first.z or other.cache is not first.cache or (
+            other.x0, other.max_radius, other.trend_degree
+        ) != (first.x0, first.max_radius, first.trend_degree):
+            raise OptionError("lists scored together must share the record, the cache and the criterion")
+    if first.cache is None:
+        fits = [scorer.fit(np.asarray(e, float)) for scorer, e in zip(scorers, etas)]
+    else:
+        filters = [sc.cache.filters(np.asarray(e, float), sc.indices, sc.Ts, sc.s) for sc, e in zip(scorers, etas)]
+        first.cache.solve([(full, parts, sc.indices) for (full, parts), sc in zip(filters, scorers)])
+        fits = [sc._models(full, parts) for (full, parts), sc in zip(filters, scorers)]
+    costs: list[np.ndarray] = [np.empty(0)] * len(scorers)
+    by_order: dict[int, list[int]] = {}
+    for i, matrices in enumerate(fits):
+        by_order.setdefault(matrices[0].shape[1], []).append(i)
+    limit = max(JOINT_BATCH_VALUES // first.y.size, 1)
+    for members in by_order.values():
+        for chunk in _chunks(members, [len(fits[i][0]) for i in members], limit):
+            joint = first.criterion(tuple(
+                np.concatenate([fits[i][k] for i in chunk]) for k in range(len(fits[chunk[0]]))
+            ))
+            ends = np.cumsum([len(fits[i][0]) for i in chunk])[:-1]
+            for i, part in zip(chunk, np.split(joint, ends)):
+                costs[i] = part
+    for scorer, e in zip(scorers, etas):
+        scorer.evaluations += len(e)
+    return list(zip(costs, fits))
+
+
+def _chunks(items: list[int], sizes: list[int], limit: int) -> list[list[int]]:
+    """Consecutive groups of ``items`` whose sizes add up to at most ``limit``.
+
+    An item larger than ``limit`` forms a group of its own.
+    """
+    groups: list[list[int]] = []
+    total = 0
+    for item, size in zip(items, sizes):
+        if not groups or total + size > limit:
+            groups.append([])
+            total = 0
+        groups[-1].append(item)
+        total += size
+    return groups
 
 
 @dataclass
@@ -643,36 +739,87 @@ def tune_filter(
     -------
     TuningResult
     """
+    return tune_filters([scorer], omega, method, iterations, [seed])[0]
+
+
+def tune_filters(
+    scorers: Sequence[FilterScorer],
+    omega: np.ndarray,
+    method: str = "random",
+    iterations: int = 5,
+    seeds: Sequence[int | np.random.Generator] | None = None,
+) -> list[TuningResult]:
+    """:func:`tune_filter` for several lists, run in step so their batches are scored together.
+
+    Each list gets the result :func:`tune_filter` gives it alone (with its own seed),
+    up to round-off; the scorers must qualify for :func:`score_lists`.
+
+    Parameters
+    ----------
+    scorers : sequence of FilterScorer
+    omega, method, iterations
+        As in :func:`tune_filter`.
+    seeds : sequence of int or numpy.random.Generator, optional
+        One per scorer; 0 for each by default.
+
+    Returns
+    -------
+    list of TuningResult
+    """
     if method not in TUNING_METHODS:
         raise OptionError(f"tuning method must be one of {TUNING_METHODS}, got {method!r}")
     if int(iterations) != iterations or iterations < 0:
         raise OptionError(f"iterations must be a non-negative integer, got {iterations!r}")
-    rng = np.random.default_rng(seed)
-    start = scorer.evaluations
-    best = _Tracker()
-    costs, matrices = scorer.score(omega)
-    best.offer(omega, costs, matrices)
-    grid_best = best.J
-    center = barycenter(omega, costs)
+    seeds = [0] * len(scorers) if seeds is None else list(seeds)
+    if len(seeds) != len(scorers):
+        raise OptionError(f"give one seed per scorer: {len(scorers)} scorers, {len(seeds)} seeds")
+    rngs = [np.random.default_rng(seed) for seed in seeds]
+    starts = [scorer.evaluations for scorer in scorers]
+    trackers = [_Tracker() for _ in scorers]
+    centers = []
+    for tracker, (costs, matrices) in zip(trackers, score_lists(scorers, [omega] * len(scorers))):
+        tracker.offer(omega, costs, matrices)
+        centers.append(barycenter(omega, costs))
+    grid_best = [tracker.J for tracker in trackers]
     if method == "zoom":
-        return _zoom(scorer, omega, best, center, grid_best, int(iterations), start)
+        _zoom(scorers, omega, trackers, int(iterations))
+        return [
+            _result(tracker, center, np.nan, best, scorer.evaluations - start)
+            for tracker, center, best, scorer, start in zip(trackers, centers, grid_best, scorers, starts)
+        ]
     steps = 0 if method == "grid" else int(iterations)
     low, high = omega.min(axis=0), omega.max(axis=0)
     spread = 0.2 * (high - low)
     for _ in range(steps):
-        drawn = omega[rng.choice(len(omega), size=min(3, len(omega)), replace=False)]
-        local = np.clip(center + spread * rng.standard_normal((3, 2)), low, high)
-        etas = np.vstack([center, drawn, local])
-        costs, matrices = scorer.score(etas)
-        best.offer(etas, costs, matrices)
-        center = barycenter(etas, costs)
-    center_cost, matrices = scorer.score(center[None])
-    best.offer(center[None], center_cost, matrices)
+        etas = [
+            np.vstack([
+                center,
+                omega[rng.choice(len(omega), size=min(3, len(omega)), replace=False)],
+                np.clip(center + spread * rng.standard_normal((3, 2)), low, high),
+            ])
+            for center, rng in zip(centers, rngs)
+        ]
+        for i, (costs, matrices) in enumerate(score_lists(scorers, etas)):
+            trackers[i].offer(etas[i], costs, matrices)
+            centers[i] = barycenter(etas[i], costs)
+    results = []
+    last = score_lists(scorers, [center[None] for center in centers])
+    for tracker, center, (cost, matrices), best, scorer, start in zip(
+        trackers, centers, last, grid_best, scorers, starts
+    ):
+        tracker.offer(center[None], cost, matrices)
+        results.append(_result(tracker, center, float(cost[0]), best, scorer.evaluations - start))
+    return results
+
+
+def _result(
+    best: _Tracker, center: np.ndarray, J_barycenter: float, grid_best: float, evaluations: int
+) -> TuningResult:
     A, B, C = best.matrices[:3]
     D = best.matrices[3] if len(best.matrices) == 4 else None
     return TuningResult(
-        eta=best.eta, J=best.J, barycenter=center, J_barycenter=float(center_cost[0]),
-        J_grid_best=grid_best, evaluations=scorer.evaluations - start, A=A, B=B, C=C, D=D,
+        eta=best.eta, J=best.J, barycenter=center, J_barycenter=J_barycenter,
+        J_grid_best=grid_best, evaluations=evaluations, A=A, B=B, C=C, D=D,
     )
 
 
@@ -681,25 +828,18 @@ def _spacing(values: np.ndarray) -> float:
     return float(np.median(np.diff(unique))) if unique.size > 1 else 0.1 * max(abs(unique[0]), 1e-3)
 
 
-def _zoom(
-    scorer: FilterScorer, omega: np.ndarray, best: _Tracker, center: np.ndarray,
-    grid_best: float, steps: int, start: int,
-) -> TuningResult:
-    """Coarse-to-fine search in ``(log wc, zeta)`` from the best grid point."""
+def _zoom(scorers: Sequence[FilterScorer], omega: np.ndarray, best: list[_Tracker], steps: int) -> None:
+    """Coarse-to-fine search in ``(log wc, zeta)`` from each list's best grid point."""
     low = np.array([np.log(omega[:, 0].min()), omega[:, 1].min()])
     high = np.array([np.log(omega[:, 0].max()), omega[:, 1].max()])
     step = 0.5 * np.array([_spacing(np.log(omega[:, 0])), _spacing(omega[:, 1])])
     offsets = np.array([(a, b) for a in (-1, 0, 1) for b in (-1, 0, 1) if (a, b) != (0, 0)], float)
     for _ in range(steps):
-        here = np.array([np.log(best.eta[0]), best.eta[1]])
-        points = np.unique(np.clip(here + offsets * step, low, high), axis=0)
-        etas = np.column_stack([np.exp(points[:, 0]), points[:, 1]])
-        costs, matrices = scorer.score(etas)
-        best.offer(etas, costs, matrices)
+        etas = []
+        for tracker in best:
+            here = np.array([np.log(tracker.eta[0]), tracker.eta[1]])
+            points = np.unique(np.clip(here + offsets * step, low, high), axis=0)
+            etas.append(np.column_stack([np.exp(points[:, 0]), points[:, 1]]))
+        for tracker, e, (costs, matrices) in zip(best, etas, score_lists(scorers, etas)):
+            tracker.offer(e, costs, matrices)
         step = step / 2
-    A, B, C = best.matrices[:3]
-    D = best.matrices[3] if len(best.matrices) == 4 else None
-    return TuningResult(
-        eta=best.eta, J=best.J, barycenter=center, J_barycenter=np.nan, J_grid_best=grid_best,
-        evaluations=scorer.evaluations - start, A=A, B=B, C=C, D=D,
-    )
