@@ -25,6 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.fft
 
 from .data import IOData
 from .errors import DataError, OptionError
@@ -124,10 +125,12 @@ def _sensitivities(A: np.ndarray, C: np.ndarray, signals: np.ndarray) -> tuple[n
     """
     N = signals.shape[0]
     free = free_response(A, C, N)                     # (N, p, n): C A^t
-    size = 2 * N
-    H = np.fft.rfft(free, size, axis=0)               # (F, p, n)
-    V = np.fft.rfft(signals, size, axis=0)            # (F, k)
-    S = np.fft.irfft(H[:, :, :, None] * V[:, None, None, :], size, axis=0)[: N - 1]
+    # any length from 2N - 1 on keeps the circular convolution's first N samples
+    # linear; 2N itself can be a slow length (glassfurnace: 2 x 7 x 89)
+    size = scipy.fft.next_fast_len(2 * N - 1, real=True)
+    H = scipy.fft.rfft(free, size, axis=0)            # (F, p, n)
+    V = scipy.fft.rfft(signals, size, axis=0)         # (F, k)
+    S = scipy.fft.irfft(H[:, :, :, None] * V[:, None, None, :], size, axis=0)[: N - 1]
     out = np.zeros((N,) + S.shape[1:])
     out[1:] = S                                        # one-step delay of (qI - A)^-1
     return out, free
@@ -176,6 +179,13 @@ class _Problem:
 
     def residual(self, yhat: np.ndarray) -> np.ndarray:
         return ((self.y - yhat) * self.weights).ravel()
+
+    def initial_state_columns(self, theta: np.ndarray) -> np.ndarray:
+        """d yhat / d x0, weighted, shape (N p, n): the Jacobian's last columns."""
+        form, _ = self.unpack(theta)
+        A, _, C = form.matrices()
+        free = free_response(A, C, self.y.shape[0])
+        return (free * self.weights[None, :, None]).reshape(-1, self.n)
 
     def jacobian(self, theta: np.ndarray, yhat: np.ndarray) -> np.ndarray:
         """d yhat / d theta, weighted, shape (N p, parameters)."""
@@ -270,8 +280,7 @@ def refine(
     stable = bool(np.max(np.abs(model.poles()), initial=0.0) < max_radius)
     if fit_x0 and stable:
         # start from the best initial state for the start model (a linear problem)
-        jac = problem.jacobian(theta, yhat)[:, -model.n :]
-        theta[-model.n :] = np.linalg.lstsq(jac, residual, rcond=None)[0]
+        theta[-model.n :] = np.linalg.lstsq(problem.initial_state_columns(theta), residual, rcond=None)[0]
         yhat, _, _ = problem.simulate(theta)
         residual = problem.residual(yhat)
     scale = None
@@ -294,10 +303,14 @@ def refine(
                 scale = norms.copy()
                 if fit_x0:
                     scale[-model.n :] = 0.0     # x0 is a nuisance parameter: not penalised
+            # |jac s - residual| = |T[:, :-1] s - T[:, -1]| for the triangular factor T
+            # of [jac, residual]: each damping tried below solves a problem of the
+            # parameters' size instead of the record's
+            reduced = np.linalg.qr(np.column_stack([jac, residual]), mode="r")
             improved = False
             while damping < 1e8:
-                rows = [jac, np.diag(np.sqrt(damping) * norms)]
-                rhs = [residual, np.zeros(theta.size)]
+                rows = [reduced[:, :-1], np.diag(np.sqrt(damping) * norms)]
+                rhs = [reduced[:, -1], np.zeros(theta.size)]
                 if ridge > 0:
                     rows.append(np.diag(penalty * scale))
                     rhs.append(-penalty * scale * (theta - theta0))
