@@ -42,8 +42,8 @@ PAPER_ZETAS = (0.6, 0.7, 1.1)
 PAPER_WCS_PER_TS = tuple(0.02 * np.pi * 10 ** (0.25 * k) for k in range(6))
 # Lists scored together (score_lists) share a simulation batch of at most this many
 # simulated values (1 MB): that saves the per-call cost of many small batches, while
-# larger batches leave the processor's cache (glassfurnace's six lists of 18 models,
-# 3 MB, scored 20 % slower together than one by one).
+# larger batches leave the processor's cache (with a 16 MB limit, glassfurnace's six
+# lists of 18 models, 3 MB, were scored 11-21 % slower together than one by one).
 JOINT_BATCH_VALUES = 2**17
 
 
@@ -145,7 +145,7 @@ class RegressionCache:
         # columns appended to xi: the outputs, and the inputs when they feed through
         self.extra = z.shape[1] if feedthrough else p
         self._factors: dict[bytes, np.ndarray] = {}
-        self._thetas: dict[tuple[bytes, int, int], tuple[np.ndarray, float]] = {}
+        self._thetas: dict[tuple[bytes, int, int], np.ndarray] = {}
         # quotient maps of a batch of filters for one divisor degree (outputs share them)
         self._quotients: dict[tuple[tuple[bytes, ...], int], np.ndarray] = {}
         # filter polynomials by degree, per eta and root-rule key (see filters)
@@ -209,48 +209,30 @@ class RegressionCache:
                 self.factorizations += len(items)
         return [self._factors[k] for k in keys]
 
-    def thetas(
-        self, alphas: Sequence[np.ndarray], divisors_: Sequence[Sequence[np.ndarray]], indices: Indices
-    ) -> tuple[list[np.ndarray], np.ndarray]:
-        """Per-output parameters for a batch of filters, as :func:`fit_batch` computes them.
+    def solve(
+        self, batches: Sequence[tuple[Sequence[np.ndarray], Sequence[Sequence[np.ndarray]], Indices]]
+    ) -> list[list[bytes]]:
+        """Solve and cache the per-output problems of several batches of filters.
+
+        Each batch is ``(alphas, divisors, indices)``: filter polynomials, each
+        one's divisors for ``indices``, and the list. The factors of all the new
+        filters are computed together, and the problems of one shape (filter degree,
+        output, index) are solved together whichever batch they come from.
 
         Returns
         -------
-        thetas : list of ndarray
-            ``thetas[j]`` has shape (R, (p + m) l_j + j), followed by the ``m``
-            feedthrough coefficients when the cache was built with ``feedthrough``.
-        cond : ndarray, shape (R,)
-            Worst condition estimate over the outputs.
+        list of list of bytes
+            Each batch's filter keys, for :meth:`thetas`.
         """
-        self.solve([(alphas, divisors_, indices)])
-        keys = [a.tobytes() for a in alphas]
-        thetas = []
-        cond = np.ones(len(alphas))
-        for j, l in enumerate(indices):
-            solved = [self._thetas[(k, j, l)] for k in keys]
-            thetas.append(np.array([t for t, _ in solved]))
-            cond = np.fmax(cond, [cr for _, cr in solved])      # NaN estimates leave cond as it is
-        return thetas, cond
-
-    def solve(
-        self, batches: Sequence[tuple[Sequence[np.ndarray], Sequence[Sequence[np.ndarray]], Indices]]
-    ) -> None:
-        """Solve and cache the per-output problems of several batches not solved yet.
-
-        Each batch is ``(alphas, divisors, indices)`` as :meth:`thetas` takes it. The
-        factors of all the filters are computed together, and the problems of one
-        shape (filter degree, output, index) are solved together whichever batch
-        they come from.
-        """
+        keys = [[a.tobytes() for a in alphas] for alphas, _, _ in batches]
         groups: dict[tuple[int, int, int], dict[bytes, tuple[np.ndarray, np.ndarray]]] = {}
-        for alphas, divisors_, indices in batches:
-            for alpha, divs in zip(alphas, divisors_):
-                key = alpha.tobytes()
+        for (alphas, divisors_, indices), batch_keys in zip(batches, keys):
+            for key, alpha, divs in zip(batch_keys, alphas, divisors_):
                 for j, l in enumerate(indices):
                     if (key, j, l) not in self._thetas:
                         groups.setdefault((alpha.size - 1, j, l), {}).setdefault(key, (alpha, divs[j]))
         if not groups:
-            return
+            return keys
         needed = {k: a for members in groups.values() for k, (a, _) in members.items()}
         factors = dict(zip(needed, self.factor(list(needed.values()))))
         c = self.z.shape[1]
@@ -265,16 +247,23 @@ class RegressionCache:
                 np.stack([factors[k] for k in members]), self._quotients[batch], c, self.p, j, extra_u
             )
             if self.feedthrough == "auto":
-                theta, cnd = self._solve_tested(small, rhs, nbar)
+                theta = self._solve_tested(small, rhs, nbar)
             else:
-                theta, cnd = solve_batch(small, rhs)
-            for i, k in enumerate(members):
-                self._thetas[(k, j, l)] = (theta[i], float(cnd[i]))
+                theta = solve_batch(small, rhs)[0]
+            for k, row in zip(members, theta):
+                self._thetas[(k, j, l)] = row
             self.solves += len(members)
+        return keys
 
-    def _solve_tested(
-        self, small: np.ndarray, rhs: np.ndarray, nbar: int
-    ) -> tuple[np.ndarray, np.ndarray]:
+    def thetas(self, keys: Sequence[bytes], indices: Indices) -> list[np.ndarray]:
+        """Per-output parameters of solved filters (keys from :meth:`solve`), as :func:`fit_batch` has them.
+
+        ``thetas[j]`` has shape (R, (p + m) l_j + j), followed by the ``m`` feedthrough
+        coefficients when the cache was built with ``feedthrough``.
+        """
+        return [np.array([self._thetas[(k, j, l)] for k in keys]) for j, l in enumerate(indices)]
+
+    def _solve_tested(self, small: np.ndarray, rhs: np.ndarray, nbar: int) -> np.ndarray:
         """Solve with feedthrough, and keep it only where an F-test on the estimation data asks.
 
         ``small`` (R, k, q) and ``rhs`` (R, k) are reduced problems
@@ -289,7 +278,7 @@ class RegressionCache:
         count, k_rows, q1 = small.shape
         dof = self.z.shape[0] - nbar - q1
         if k_rows <= q1 or dof <= 0:
-            return solve_batch(small, rhs)           # short records: keep the feedthrough
+            return solve_batch(small, rhs)[0]        # short records: keep the feedthrough
         q0 = q1 - m
         norms = np.sqrt(np.add.reduce(small * small, axis=1, keepdims=True))   # np.linalg.norm's sums
         norms[norms == 0] = 1.0
@@ -315,7 +304,7 @@ class RegressionCache:
                 theta[good, :k] = np.linalg.solve(r[good, :k, :k], r[good, :k, q1, None])[..., 0]
             for i in np.flatnonzero(rows & ~good):    # rank deficient: minimum-norm solution
                 theta[i, :k] = scipy.linalg.lstsq(scaled[i, :, :k], rhs[i])[0]
-        return theta / norms[:, 0, :], cond
+        return theta / norms[:, 0, :]
 
 
 @functools.lru_cache(maxsize=None)
@@ -555,13 +544,11 @@ class FilterScorer:
             alphas = [filter_divisors(w, zeta, self.indices, self.Ts, self.s) for w, zeta in etas]
             A, B, C, _ = fit_batch(self.z, self.indices, alphas)
             return A, B, C
-        return self._models(*self.cache.filters(etas, self.indices, self.Ts, self.s))
+        return _fit_cached([self], [etas])[0]
 
-    def _models(self, full: list[np.ndarray], parts: list[list[np.ndarray]]) -> tuple[np.ndarray, ...]:
-        """The models of the filters ``full`` (with divisors ``parts``) from the cache's solutions."""
-        thetas, _ = self.cache.thetas(full, parts, self.indices)
-        p = len(self.indices)
-        m = self.z.shape[1] - p
+    def _realize(self, thetas: list[np.ndarray], parts: list[list[np.ndarray]]) -> tuple[np.ndarray, ...]:
+        """State-space batch of the per-output parameters ``thetas`` (divisors ``parts``)."""
+        m = self.z.shape[1] - len(self.indices)
         if not self.cache.feedthrough:
             return realize(thetas, parts, self.indices, m)
         return _realize_feedthrough(thetas, parts, self.indices, m)
@@ -616,9 +603,7 @@ def score_lists(
     if first.cache is None:
         fits = [scorer.fit(np.asarray(e, float)) for scorer, e in zip(scorers, etas)]
     else:
-        filters = [sc.cache.filters(np.asarray(e, float), sc.indices, sc.Ts, sc.s) for sc, e in zip(scorers, etas)]
-        first.cache.solve([(full, parts, sc.indices) for (full, parts), sc in zip(filters, scorers)])
-        fits = [sc._models(full, parts) for (full, parts), sc in zip(filters, scorers)]
+        fits = _fit_cached(scorers, etas)
     costs: list[np.ndarray] = [np.empty(0)] * len(scorers)
     by_order: dict[int, list[int]] = {}
     for i, matrices in enumerate(fits):
@@ -635,6 +620,16 @@ def score_lists(
     for scorer, e in zip(scorers, etas):
         scorer.evaluations += len(e)
     return list(zip(costs, fits))
+
+
+def _fit_cached(scorers: Sequence[FilterScorer], etas: Sequence[np.ndarray]) -> list[tuple[np.ndarray, ...]]:
+    """Each scorer's models, with the least-squares problems of all of them solved together."""
+    cache = scorers[0].cache
+    filters = [cache.filters(np.asarray(e, float), sc.indices, sc.Ts, sc.s) for sc, e in zip(scorers, etas)]
+    keys = cache.solve([(full, parts, sc.indices) for (full, parts), sc in zip(filters, scorers)])
+    return [
+        sc._realize(cache.thetas(k, sc.indices), parts) for sc, k, (_, parts) in zip(scorers, keys, filters)
+    ]
 
 
 def _chunks(items: list[int], sizes: list[int], limit: int) -> list[list[int]]:
