@@ -13,6 +13,12 @@ zero state on the validation inputs; VAF per output, averaged over the outputs):
   window 0 is the paper split);
 * CD_player_arm, dryer2, glassfurnace: first half estimation, second half validation.
 
+With ``--reverse`` every split is run the other way round (the evaporator windows
+estimate on k*500+500..k*500+999 and validate on k*500..k*500+499; the other records
+estimate on the second half and validate on the first), and the tables go to
+``benchmarks_reversed.md``: a second look at each record, to tell a method's edge from
+the luck of one split.
+
 Methods, each at every order from p to nmax:
 
 * moli, three presets of :func:`moli.identify`: ``paper`` (the paper's MOLI-ZOFT),
@@ -74,13 +80,15 @@ def order_rule(vafs: np.ndarray, tolerance: float = TOLERANCE) -> int:
     return int(np.flatnonzero(clean >= clean.max() - tolerance)[0])
 
 
-def splits(data: moli.IOData, name: str) -> list[tuple[str, slice, slice]]:
-    """Named (estimation, validation) slices of one record."""
+def splits(data: moli.IOData, name: str, reverse: bool = False) -> list[tuple[str, slice, slice]]:
+    """Named (estimation, validation) slices of one record (swapped with ``reverse``)."""
     if name == "evaporator":
-        return [(f"w{k}", slice(k * BLOCK, (k + 1) * BLOCK), slice((k + 1) * BLOCK, (k + 2) * BLOCK))
-                for k in range(WINDOWS)]
-    half = data.N // 2
-    return [("half", slice(0, half), slice(half, data.N))]
+        pairs = [(f"w{k}", slice(k * BLOCK, (k + 1) * BLOCK), slice((k + 1) * BLOCK, (k + 2) * BLOCK))
+                 for k in range(WINDOWS)]
+    else:
+        half = data.N // 2
+        pairs = [("half", slice(0, half), slice(half, data.N))]
+    return [(label, val, est) for label, est, val in pairs] if reverse else pairs
 
 
 def run_moli(data: moli.IOData, est: slice, val: slice, nmax: int, options: dict) -> dict:
@@ -129,12 +137,13 @@ def run_peer(fit, data: moli.IOData, est: slice, val: slice, nmax: int) -> dict:
             "seconds": total}
 
 
-def collect(datasets: list[str], peers: dict, data_dir: str | None, repeats: int = 1) -> dict:
+def collect(datasets: list[str], peers: dict, data_dir: str | None, repeats: int = 1,
+            reverse: bool = False) -> dict:
     results: dict = {}
     for name in datasets:
         data = load_daisy(name, data_dir)
         nmax = NMAX[name]
-        for label, est, val in splits(data, name):
+        for label, est, val in splits(data, name, reverse):
             key = f"{name}/{label}"
             results[key] = {"p": data.p, "outputs": list(data.output_names), "methods": {}}
             runs = [(m, lambda o=o: run_moli(data, est, val, nmax, o)) for m, o in MOLI_METHODS.items()]
@@ -176,10 +185,20 @@ def fmt(value: float) -> str:
     return "—" if value is None or not np.isfinite(value) else f"{value:.2f}"
 
 
-def markdown(results: dict, methods: list[str], peers: list[str], command: str) -> str:
+def markdown(results: dict, methods: list[str], peers: list[str], command: str,
+             reverse: bool = False) -> str:
     window_keys = [k for k in results if k.startswith("evaporator/")]
     other_keys = [k for k in results if not k.startswith("evaporator/")]
-    out = ["# moli against SIPPY and nfoursid on DaISy records", "",
+    if reverse:
+        windows_title = "Evaporator, reversed: mean over the 11 windows (estimation on the later 500)"
+        paper_title = "Evaporator, reversed paper split (estimation 500..999, validation 0..499)"
+        half_title = "second half estimation, first half validation"
+    else:
+        windows_title = "Evaporator: mean over the 11 windows of 500 + 500 samples"
+        paper_title = "Evaporator: the paper split (estimation 0..499, validation 500..999)"
+        half_title = "first half estimation, second half validation"
+    heading = "# moli against SIPPY and nfoursid on DaISy records" + (", splits reversed" if reverse else "")
+    out = [heading, "",
            "Produced by:", "", "```", command, "```", "",
            f"Machine: {platform.machine()}, Python {platform.python_version()}, numpy "
            f"{np.__version__}, one BLAS thread. VAF: validation, percent, simulation from the "
@@ -201,10 +220,10 @@ def markdown(results: dict, methods: list[str], peers: list[str], command: str) 
         out.append("")
 
     if window_keys:
-        table(window_keys, "Evaporator: mean over the 11 windows of 500 + 500 samples")
-        table(["evaporator/w0"], "Evaporator: the paper split (estimation 0..499, validation 500..999)")
+        table(window_keys, windows_title)
+        table(["evaporator/w0"], paper_title)
     for k in other_keys:
-        table([k], f"{k.split('/')[0]}: first half estimation, second half validation")
+        table([k], f"{k.split('/')[0]}: {half_title}")
     if not window_keys:
         return "\n".join(out)
 
@@ -251,7 +270,7 @@ def markdown(results: dict, methods: list[str], peers: list[str], command: str) 
     return "\n".join(out)
 
 
-def figures(results: dict, methods: list[str], outdir: Path) -> list[Path]:
+def figures(results: dict, methods: list[str], outdir: Path, reverse: bool = False) -> list[Path]:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -260,8 +279,9 @@ def figures(results: dict, methods: list[str], outdir: Path) -> list[Path]:
     shown = [m for m in methods if m.startswith("moli") and "refine" not in m] + [
         "SIPPY N4SID f=2n", "SIPPY MOESP f=2n", "SIPPY CVA f=2n", "SIPPY PARSIM-K f=2n B-reval", "nfoursid r=2n"]
     window_keys = [k for k in results if k.startswith("evaporator/")]
-    panels = [("evaporator, mean of 11 windows", window_keys), ("evaporator, paper split", ["evaporator/w0"])]
-    panels += [(k.split("/")[0] + ", half/half", [k]) for k in results if not k.startswith("evaporator/")]
+    suffix, tag = ("_reversed", ", reversed") if reverse else ("", "")
+    panels = [("evaporator, mean of 11 windows" + tag, window_keys), ("evaporator, paper split" + tag, ["evaporator/w0"])]
+    panels += [(k.split("/")[0] + ", half/half" + tag, [k]) for k in results if not k.startswith("evaporator/")]
     paths = []
     fig, axes = plt.subplots(2, 3, figsize=(15, 8.5))
     for ax, (title, keys) in zip(axes.ravel(), panels):
@@ -279,7 +299,7 @@ def figures(results: dict, methods: list[str], outdir: Path) -> list[Path]:
         ax.axis("off")
     axes[0, 0].legend(fontsize=7, loc="lower right")
     fig.tight_layout()
-    paths.append(outdir / "peers_vaf_per_order.png")
+    paths.append(outdir / f"peers_vaf_per_order{suffix}.png")
     fig.savefig(paths[-1], dpi=110)
     plt.close(fig)
 
@@ -290,11 +310,11 @@ def figures(results: dict, methods: list[str], outdir: Path) -> list[Path]:
     ax.set_yscale("log")
     ax.set_xlabel("order n")
     ax.set_ylabel("cumulative wall time, s (mean of 11 windows)")
-    ax.set_title("evaporator: cumulative run time up to order n (one BLAS thread)")
+    ax.set_title("evaporator" + tag + ": cumulative run time up to order n (one BLAS thread)")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=7)
     fig.tight_layout()
-    paths.append(outdir / "peers_cumulative_time.png")
+    paths.append(outdir / f"peers_cumulative_time{suffix}.png")
     fig.savefig(paths[-1], dpi=110)
     plt.close(fig)
 
@@ -312,11 +332,11 @@ def figures(results: dict, methods: list[str], outdir: Path) -> list[Path]:
     ax.set_xticks(x + 0.4 - width / 2, [k.split("/")[1] for k in window_keys])
     ax.set_ylim(50, 95)
     ax.set_ylabel("mean validation VAF, %")
-    ax.set_title("evaporator windows: automatically selected moli models vs the best peer")
+    ax.set_title("evaporator windows" + tag + ": automatically selected moli models vs the best peer")
     ax.legend(fontsize=7, loc="lower right")
     ax.grid(alpha=0.3, axis="y")
     fig.tight_layout()
-    paths.append(outdir / "peers_windows.png")
+    paths.append(outdir / f"peers_windows{suffix}.png")
     fig.savefig(paths[-1], dpi=110)
     plt.close(fig)
     return paths
@@ -329,6 +349,8 @@ def main() -> None:
     parser.add_argument("--datasets", nargs="+", default=list(NMAX))
     parser.add_argument("--quick", action="store_true", help="skip PARSIM-K (slow)")
     parser.add_argument("--json", default=None, help="also write every number to this JSON file")
+    parser.add_argument("--reverse", action="store_true",
+                        help="swap estimation and validation in every split; writes benchmarks_reversed.md")
     parser.add_argument("--repeats", type=int, default=3,
                         help="runs per split and method; times are the fastest run's")
     args = parser.parse_args()
@@ -347,25 +369,26 @@ def main() -> None:
         warnings.simplefilter("ignore")
         moli.identify(warm[0:300], warm[300:600], nmax=4)
 
-    results = collect(args.datasets, peers, args.data_dir, args.repeats)
+    results = collect(args.datasets, peers, args.data_dir, args.repeats, args.reverse)
     methods = list(MOLI_METHODS) + list(peers)
     command = "MOLI_DATA_DIR=<daisy folder> python benchmarks/peers.py " + " ".join(
         a for a in sys.argv[1:] if not a.startswith("--data-dir"))
-    text = markdown(results, methods, list(peers), command.strip())
+    text = markdown(results, methods, list(peers), command.strip(), args.reverse)
     print(text)
     if args.json:
         Path(args.json).write_text(json.dumps(results, default=float))
     if args.out:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
-        target = out / "benchmarks.md"
+        target = out / ("benchmarks_reversed.md" if args.reverse else "benchmarks.md")
         notes = ""
         if target.exists() and NOTES_MARKER in target.read_text():
             # hand-written findings below the marker survive a re-run
             notes = target.read_text().split(NOTES_MARKER, 1)[1]
         target.write_text(text + "\n" + NOTES_MARKER + notes)
-        paths = figures(results, methods, out / "figures") if "evaporator" in args.datasets else []
-        print("wrote", out / "benchmarks.md", *paths)
+        paths = (figures(results, methods, out / "figures", args.reverse)
+                 if "evaporator" in args.datasets else [])
+        print("wrote", target, *paths)
 
 
 if __name__ == "__main__":
