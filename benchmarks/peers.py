@@ -71,6 +71,17 @@ MOLI_METHODS = {
     "moli improved+refine": {"preset": "improved", "refine": "selected"},
 }
 TOLERANCE = 1.0
+# what a run's file, tables and figures are called, by direction of its splits
+NAMING = {
+    False: {"file": "benchmarks.md", "suffix": "", "tag": "",
+            "windows": "Evaporator: mean over the 11 windows of 500 + 500 samples",
+            "paper": "Evaporator: the paper split (estimation 0..499, validation 500..999)",
+            "half": "first half estimation, second half validation"},
+    True: {"file": "benchmarks_reversed.md", "suffix": "_reversed", "tag": ", reversed",
+           "windows": "Evaporator, reversed: mean over the 11 windows (estimation on the later 500)",
+           "paper": "Evaporator, reversed paper split (estimation 500..999, validation 0..499)",
+           "half": "second half estimation, first half validation"},
+}
 NOTES_MARKER = "<!-- findings: kept when the tables above are regenerated -->"
 
 
@@ -189,16 +200,8 @@ def markdown(results: dict, methods: list[str], peers: list[str], command: str,
              reverse: bool = False) -> str:
     window_keys = [k for k in results if k.startswith("evaporator/")]
     other_keys = [k for k in results if not k.startswith("evaporator/")]
-    if reverse:
-        windows_title = "Evaporator, reversed: mean over the 11 windows (estimation on the later 500)"
-        paper_title = "Evaporator, reversed paper split (estimation 500..999, validation 0..499)"
-        half_title = "second half estimation, first half validation"
-    else:
-        windows_title = "Evaporator: mean over the 11 windows of 500 + 500 samples"
-        paper_title = "Evaporator: the paper split (estimation 0..499, validation 500..999)"
-        half_title = "first half estimation, second half validation"
-    heading = "# moli against SIPPY and nfoursid on DaISy records" + (", splits reversed" if reverse else "")
-    out = [heading, "",
+    names = NAMING[reverse]
+    out = ["# moli against SIPPY and nfoursid on DaISy records" + names["tag"], "",
            "Produced by:", "", "```", command, "```", "",
            f"Machine: {platform.machine()}, Python {platform.python_version()}, numpy "
            f"{np.__version__}, one BLAS thread. VAF: validation, percent, simulation from the "
@@ -220,10 +223,10 @@ def markdown(results: dict, methods: list[str], peers: list[str], command: str,
         out.append("")
 
     if window_keys:
-        table(window_keys, windows_title)
-        table(["evaporator/w0"], paper_title)
+        table(window_keys, names["windows"])
+        table(["evaporator/w0"], names["paper"])
     for k in other_keys:
-        table([k], f"{k.split('/')[0]}: {half_title}")
+        table([k], f"{k.split('/')[0]}: {names['half']}")
     if not window_keys:
         return "\n".join(out)
 
@@ -279,7 +282,7 @@ def figures(results: dict, methods: list[str], outdir: Path, reverse: bool = Fal
     shown = [m for m in methods if m.startswith("moli") and "refine" not in m] + [
         "SIPPY N4SID f=2n", "SIPPY MOESP f=2n", "SIPPY CVA f=2n", "SIPPY PARSIM-K f=2n B-reval", "nfoursid r=2n"]
     window_keys = [k for k in results if k.startswith("evaporator/")]
-    suffix, tag = ("_reversed", ", reversed") if reverse else ("", "")
+    suffix, tag = NAMING[reverse]["suffix"], NAMING[reverse]["tag"]
     panels = [("evaporator, mean of 11 windows" + tag, window_keys), ("evaporator, paper split" + tag, ["evaporator/w0"])]
     panels += [(k.split("/")[0] + ", half/half" + tag, [k]) for k in results if not k.startswith("evaporator/")]
     paths = []
@@ -380,7 +383,7 @@ def main() -> None:
     if args.out:
         out = Path(args.out)
         out.mkdir(parents=True, exist_ok=True)
-        target = out / ("benchmarks_reversed.md" if args.reverse else "benchmarks.md")
+        target = out / NAMING[args.reverse]["file"]
         notes = ""
         if target.exists() and NOTES_MARKER in target.read_text():
             # hand-written findings below the marker survive a re-run
