@@ -262,6 +262,9 @@ def describe(model: StateSpaceModel) -> str:
         lines.append(f"observability indices: {list(model.indices)}")
     if model.alpha is not None:
         lines.append(f"filter polynomial alpha: {np.array2string(model.alpha, precision=4)}")
+    if model.divisors is not None:
+        lines += [f"filter of output {j + 1}: {np.array2string(d, precision=4)}"
+                  for j, d in enumerate(model.divisors)]
     lines.append(f"stable: {'yes' if model.is_stable() else 'NO'} "
                  f"(largest pole modulus {np.max(np.abs(z), initial=0.0):.4f})")
     lines.append("poles (modulus):")

@@ -181,11 +181,13 @@ def fit_batch(
     R = len(alphas)
     thetas = []
     cond = np.ones(R)
-    filtered: dict[tuple[int, int], np.ndarray] = {}
+    # filtered signals depend on the divisor alone: outputs and candidates that share
+    # one (the same filter's divisor of the same degree) filter the data once
+    filtered: dict[bytes, np.ndarray] = {}
     for j, l in enumerate(indices):
         phis = []
         for r in range(R):
-            key = (r, l)
+            key = np.asarray(alphas[r][j], float).tobytes()
             if key not in filtered:
                 filtered[key] = filtered_regressors(z, alphas[r][j])[skip:]
             phis.append(np.concatenate([filtered[key], z[skip:, :j]], axis=1))

@@ -81,7 +81,8 @@ class IdentificationResult:
             f"{self.options['tuning']}, s = {self.options['s']:g}, feedthrough "
             f"{self.options.get('feedthrough', False)}, max pole radius "
             f"{self.options.get('max_radius') or 'none'}, J trend degree "
-            f"{self.options.get('trend_degree', 0)}, refinement "
+            f"{self.options.get('trend_degree', 0)}, per-output filters "
+            f"{self.options.get('output_filters', False)}, refinement "
             f"{self.options.get('refine', 'none')}",
             head,
         ]
@@ -99,6 +100,10 @@ class IdentificationResult:
             f"validation VAF; total {self.seconds:.2f} s"
             + (" (interrupted: partial path)" if self.interrupted else "")
         )
+        if self.selected.output_etas is not None:
+            lines.append("its filters per output (wc, zeta): " + ", ".join(
+                f"y{j + 1} ({wc:.4g}, {zeta:.3g})" for j, (wc, zeta) in enumerate(self.selected.output_etas)
+            ))
         return "\n".join(lines)
 
 
@@ -112,15 +117,18 @@ PRESETS: dict[str, dict[str, Any]] = {
     # windows, docs/benchmarks.md), and unstable candidates scored worst: a slightly
     # unstable model can fit a finite record well and still diverge on the next one
     "improved": {"tuning": "grid", "s": 2.0, "feedthrough": "auto", "max_radius": 1.0,
-                 "criterion_x0": "zero", "trend_degree": 2, "refine": False},
+                 "criterion_x0": "zero", "trend_degree": 2, "output_filters": True,
+                 "refine": False},
     # filter candidates with modes slower than a tenth of the estimation record ruled
     # out, and wider root spacing: for plants known to be that fast (with the bound,
     # the trend-blind J measured worse on the evaporator windows)
     "bounded": {"tuning": "grid", "s": 3.0, "feedthrough": "auto", "max_radius": "auto",
-                "criterion_x0": "zero", "trend_degree": 0, "refine": False},
+                "criterion_x0": "zero", "trend_degree": 0, "output_filters": False,
+                "refine": False},
     # the paper's MOLI-ZOFT: randomized barycenter, s = 2, no feedthrough, J alone
     "paper": {"tuning": "random", "s": 2.0, "feedthrough": False, "max_radius": None,
-              "criterion_x0": "zero", "trend_degree": 0, "refine": False},
+              "criterion_x0": "zero", "trend_degree": 0, "output_filters": False,
+              "refine": False},
 }
 REFINE_CHOICES = ("none", "selected", "path")
 # "auto" stability bound: a mode whose time constant exceeds a tenth of the estimation
@@ -153,6 +161,8 @@ def _resolve(preset: str, given: dict[str, Any]) -> dict[str, Any]:
     )):
         raise OptionError(f"max_radius must be 'none', 'auto' or a number in (0, 1], got {radius!r}")
     chosen["trend_degree"] = check_trend_degree(chosen["trend_degree"])
+    if not isinstance(chosen["output_filters"], bool):
+        raise OptionError(f"output_filters must be True or False, got {chosen['output_filters']!r}")
     if not any(chosen["feedthrough"] is v or chosen["feedthrough"] == "auto" for v in (True, False)):
         raise OptionError(f"feedthrough must be one of {FEEDTHROUGH_CHOICES}, got {chosen['feedthrough']!r}")
     return chosen
@@ -173,6 +183,7 @@ def identify(
     max_radius: float | str | None = None,
     criterion_x0: str | None = None,
     trend_degree: int | None = None,
+    output_filters: bool | None = None,
     refine: bool | str | None = None,
     refine_iterations: int = 10,
     refine_ridge: float = 1.0,
@@ -201,12 +212,12 @@ def identify(
     preset : {"improved", "bounded", "paper"}
         Defaults of the options below that are left as None. ``"improved"``: grid
         barycenter, ``s = 2``, ``feedthrough="auto"``, ``max_radius=1`` (unstable
-        candidates score the worst J), ``trend_degree=2``, no refinement. ``"bounded"``: as improved with
+        candidates score the worst J), ``trend_degree=2``, per-output filters, no refinement. ``"bounded"``: as improved with
         ``s = 3``, ``max_radius="auto"`` and ``trend_degree=0``, for plants whose time constants are well below a tenth
         of the estimation record (it rules out the slow, nearly unstable models that
         fit the estimation record's drift).
         ``"paper"``: the paper's MOLI-ZOFT (randomized barycenter, ``s = 2``, no
-        feedthrough, the paper's J, no refinement).
+        feedthrough, the paper's J, one shared filter, no refinement).
     tuning : {"grid", "random", "zoom"}, optional
         Filter search (see :func:`moli.tuning.tune_filter`).
     iterations : int, default 5
@@ -231,6 +242,11 @@ def identify(
         the estimation record's drift then earns nothing, so neither the filter
         search nor the path prefers it; the order rule still scores the plain
         simulation. At most 5.
+    output_filters : bool, optional
+        Give each path model's outputs filters of their own: each output's cutoff
+        is re-tuned on J from the shared filter's damping row of ``omega``
+        (:func:`moli.output_filters.tune_output_cutoffs`), kept where J drops. The
+        greedy path still compares lists with the shared filter.
     refine : bool or {"none", "selected", "path"}, optional
         Output-error refinement (:func:`moli.refine.refine`) on the estimation data,
         with the initial state estimated jointly and poles kept inside
@@ -269,12 +285,13 @@ def identify(
         raise OptionError(
             f"unknown option(s) {sorted(unknown)}; identify accepts nmax, omega, seed, preset, "
             "tuning, iterations, s, feedthrough, max_radius, criterion_x0, trend_degree, "
-            "refine, "
+            "output_filters, refine, "
             "refine_iterations, refine_ridge, center, x0, order_tolerance, progress"
         )
     chosen = _resolve(preset, {"tuning": tuning, "s": s, "feedthrough": feedthrough,
                                "max_radius": max_radius, "criterion_x0": criterion_x0,
-                               "trend_degree": trend_degree, "refine": refine})
+                               "trend_degree": trend_degree, "output_filters": output_filters,
+                               "refine": refine})
     tuning, s = chosen["tuning"], float(chosen["s"])
     if not isinstance(data, IOData):
         raise DataError(f"data must be an IOData, got {type(data).__name__}")
@@ -306,12 +323,14 @@ def identify(
     search = StructureSearch(
         estimation, validation, grid, tuning, iterations, s, int(seed), x0,
         chosen["criterion_x0"], chosen["feedthrough"], radius, chosen["trend_degree"],
+        chosen["output_filters"],
     )
     check_sample_count(estimation.N, (1,) * p, estimation.m)
     options = {"nmax": int(nmax), "omega": grid.tolist(), "seed": int(seed), "preset": preset,
                "tuning": tuning, "iterations": iterations, "s": s,
                "feedthrough": chosen["feedthrough"], "max_radius": radius,
                "criterion_x0": chosen["criterion_x0"], "trend_degree": chosen["trend_degree"],
+               "output_filters": chosen["output_filters"],
                "refine": chosen["refine"],
                "refine_iterations": refine_iterations, "refine_ridge": refine_ridge,
                "center": center, "x0": x0, "order_tolerance": order_tolerance}

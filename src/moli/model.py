@@ -11,7 +11,8 @@ import numpy as np
 
 from ._version import __version__
 from .data import as_signal
-from .errors import DataError, ModelFileError, UnstableModelWarning
+from .errors import DataError, FilterError, ModelFileError, UnstableModelWarning
+from .filters import check_alpha, divisors as alpha_divisors
 from .simulation import simulate_batch
 
 FILE_FORMAT = "moli-model"
@@ -44,11 +45,15 @@ class StateSpaceModel:
     indices : sequence of int, optional
         List of observability indices the model was estimated with.
     alpha : array_like, optional
-        Filter polynomial the model was estimated with.
+        Filter polynomial the model was estimated with (one filter shared by the
+        outputs: output ``j``'s divisor is the divisor of degree ``indices[j]``).
     y_offset, u_offset : array_like, optional
         Operating point removed from the data before estimation.
     info : dict, optional
         JSON-serialisable facts about the estimation (filter parameters, J, ...).
+    divisors : sequence of array_like, optional
+        Per-output filter polynomials when each output had a filter of its own
+        (``divisors[j]`` monic, stable, of degree ``indices[j]``); needs ``indices``.
 
     Examples
     --------
@@ -71,6 +76,8 @@ class StateSpaceModel:
         y_offset: object | None = None,
         u_offset: object | None = None,
         info: dict[str, Any] | None = None,
+        *,
+        divisors: Sequence[Sequence[float]] | None = None,
     ) -> None:
         self.A = _matrix("A", A)
         n = self.A.shape[0]
@@ -94,6 +101,29 @@ class StateSpaceModel:
         self.y_offset = np.zeros(p) if y_offset is None else np.array(y_offset, dtype=float).reshape(p)
         self.u_offset = np.zeros(m) if u_offset is None else np.array(u_offset, dtype=float).reshape(m)
         self.info = dict(info or {})
+        self.divisors = None if divisors is None else self._checked_divisors(divisors)
+
+    def _checked_divisors(self, given: Sequence[Sequence[float]]) -> tuple[np.ndarray, ...]:
+        if self.indices is None or len(given) != len(self.indices) or len(self.indices) != self.p:
+            raise DataError(f"divisors need the model's indices, one divisor per output ({self.p})")
+        checked = []
+        for j, (coeffs, l) in enumerate(zip(given, self.indices)):
+            try:
+                alpha_j = check_alpha(coeffs)
+            except FilterError as exc:
+                raise DataError(f"divisor of output {j + 1}: {exc}") from None
+            if alpha_j.size - 1 != l:
+                raise DataError(f"divisor of output {j + 1} must have degree {l}, got {alpha_j.size - 1}")
+            checked.append(alpha_j)
+        return tuple(checked)
+
+    def output_divisors(self) -> tuple[np.ndarray, ...] | None:
+        """Each output's filter polynomial (from ``divisors`` or ``alpha``); None if unknown."""
+        if self.divisors is not None:
+            return self.divisors
+        if self.alpha is None or self.indices is None:
+            return None
+        return tuple(alpha_divisors(self.alpha, self.indices))
 
     @property
     def n(self) -> int:
@@ -191,6 +221,7 @@ class StateSpaceModel:
             "output_names": list(self.output_names), "input_names": list(self.input_names),
             "indices": None if self.indices is None else list(self.indices),
             "alpha": None if self.alpha is None else self.alpha.tolist(),
+            "divisors": None if self.divisors is None else [d.tolist() for d in self.divisors],
             "y_offset": self.y_offset.tolist(), "u_offset": self.u_offset.tolist(),
             "info": self.info,
         }
@@ -215,7 +246,7 @@ def model_from_dict(content: dict[str, Any]) -> StateSpaceModel:
             content["A"], content["B"], content["C"], content["D"], content["Ts"],
             content["output_names"], content["input_names"], content.get("indices"),
             content.get("alpha"), content.get("y_offset"), content.get("u_offset"),
-            content.get("info"),
+            content.get("info"), divisors=content.get("divisors"),
         )
     except KeyError as exc:
         raise ModelFileError(f"model file lacks the field {exc}") from None

@@ -29,7 +29,6 @@ import scipy.fft
 
 from .data import IOData
 from .errors import DataError, OptionError
-from .filters import divisors
 from .model import StateSpaceModel
 from .simulation import free_response, simulate_batch
 
@@ -66,21 +65,22 @@ def observer_form(model: StateSpaceModel) -> ObserverForm:
     Parameters
     ----------
     model : StateSpaceModel
-        Must carry ``indices`` and ``alpha`` (models from :func:`moli.estimate` or
-        :func:`moli.identify` do).
+        Must carry ``indices`` and its filters, ``alpha`` or per-output ``divisors``
+        (models from :func:`moli.estimate` or :func:`moli.identify` do).
 
     Returns
     -------
     ObserverForm
     """
-    if model.indices is None or model.alpha is None:
-        raise DataError("refinement needs a MOLI model that carries its indices and alpha")
+    filters = model.output_divisors()
+    if filters is None:
+        raise DataError("refinement needs a MOLI model that carries its indices and filter polynomials")
     indices = model.indices
     n, p = model.n, model.p
     A_D = np.zeros((n, n))
     C_D = np.zeros((p, n))
     last = np.cumsum(indices) - 1
-    for j, (alpha_j, l) in enumerate(zip(divisors(model.alpha, indices), indices)):
+    for j, (alpha_j, l) in enumerate(zip(filters, indices)):
         s = last[j] - l + 1
         A_D[s + 1 : s + l, s : s + l - 1] = np.eye(l - 1)
         A_D[s : s + l, s + l - 1] = -alpha_j[:0:-1]
@@ -344,6 +344,6 @@ def refine(
     refined = StateSpaceModel(
         A, B, C, F, Ts=model.Ts, output_names=model.output_names, input_names=model.input_names,
         indices=model.indices, alpha=model.alpha, y_offset=model.y_offset,
-        u_offset=model.u_offset, info=info,
+        u_offset=model.u_offset, info=info, divisors=model.divisors,
     )
     return RefineResult(refined, x0, cost_start, cost, accepted, rejected)

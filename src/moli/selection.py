@@ -14,6 +14,7 @@ from .estimation import check_sample_count
 from .filters import filter_polynomial
 from .model import StateSpaceModel
 from .structure import Indices, compositions, raised
+from .output_filters import tune_output_cutoffs
 from .tuning import FilterScorer, RegressionCache, tune_filters
 from .validation import compare
 
@@ -28,17 +29,20 @@ class PathStep:
     order : int
         McMillan degree ``sum(indices)``.
     J : float
-        Criterion on the estimation data (simulation, zero state) of the chosen filter.
+        Criterion on the estimation data (simulation, zero state) of the model.
     J_barycenter : float
         Criterion at the last barycenter of the filter search.
     eta : ndarray, shape (2,)
-        Chosen filter parameters ``(wc, zeta)``.
+        Shared filter ``(wc, zeta)`` chosen by the filter search.
     vaf : ndarray, shape (p,)
         Validation VAF per output, percent (simulation; initial state as requested).
     model : StateSpaceModel
     seconds : float
         Wall time spent tuning, estimating and validating this list (lists tuned
         together each count an equal share of the joint time).
+    output_etas : ndarray, shape (p, 2), optional
+        Each output's filter when per-output filters lowered J (the model then
+        carries per-output ``divisors``); None when the shared filter was kept.
     """
 
     indices: Indices
@@ -49,6 +53,7 @@ class PathStep:
     vaf: np.ndarray
     model: StateSpaceModel = field(repr=False)
     seconds: float
+    output_etas: np.ndarray | None = None
 
     @property
     def mean_vaf(self) -> float:
@@ -90,14 +95,19 @@ class StructureSearch:
     trend_degree : int, default 0
         Degree of the polynomial trend of the simulation error that J ignores (0:
         the paper's J; see :class:`moli.tuning.FilterScorer`).
+    output_filters : bool, default False
+        Before a list is validated, re-tune each output's filter cutoff on J
+        (:func:`moli.output_filters.tune_output_cutoffs`); the lists compared by
+        the greedy path keep the shared filter.
     """
 
     def __init__(
         self, estimation: IOData, validation: IOData, omega: np.ndarray, tuning: str = "random",
         iterations: int = 5, s: float = 2.0, seed: int = 0, x0: str = "zero",
         criterion_x0: str = "zero", feedthrough: bool = False, max_radius: float | None = None,
-        trend_degree: int = 0,
+        trend_degree: int = 0, output_filters: bool = False,
     ) -> None:
+        self.output_filters = output_filters
         self.max_radius = max_radius
         self.trend_degree = trend_degree
         self.criterion_x0 = criterion_x0
@@ -126,7 +136,8 @@ class StructureSearch:
         """Tune the filter, estimate and (unless told not to) validate one list (cached).
 
         With ``validate=False`` the step's ``vaf`` is left empty (NaN) until a later
-        call validates it: the greedy path validates only the lists it keeps.
+        call validates it: the greedy path validates only the lists it keeps. With
+        ``output_filters`` a list's filters are re-tuned per output when it is validated.
         """
         return self.fit_many([indices], validate)[0]
 
@@ -143,20 +154,40 @@ class StructureSearch:
         for step in steps:
             if validate and np.isnan(step.vaf).any():
                 started = time.perf_counter()
+                if self.output_filters:
+                    self._separate(step)
                 step.vaf = compare(step.model, self.validation, self.x0).vaf
                 step.seconds += time.perf_counter() - started
         return steps
 
+    def _scorer(self, indices: Indices) -> FilterScorer:
+        return FilterScorer(
+            self._z, indices, self.estimation.Ts, self.s, self._regressions, self.criterion_x0,
+            self.max_radius, self.trend_degree,
+        )
+
+    def _separate(self, step: PathStep) -> None:
+        """Give the step's model per-output filter cutoffs where they lower J."""
+        found = tune_output_cutoffs(self._scorer(step.indices), step.eta, self.omega)
+        if not found.J < found.J_shared:
+            return
+        A, B, C = found.matrices[:3]
+        D = found.matrices[3] if len(found.matrices) == 4 else None
+        old = step.model
+        info = dict(old.info, J=found.J, output_wc=found.etas[:, 0].tolist(),
+                    output_zeta=found.etas[:, 1].tolist())
+        step.model = StateSpaceModel(
+            A, B, C, D, Ts=old.Ts, output_names=old.output_names, input_names=old.input_names,
+            indices=old.indices, y_offset=old.y_offset, u_offset=old.u_offset, info=info,
+            divisors=found.divisors,
+        )
+        step.J = found.J
+        step.output_etas = found.etas
+
     def _tune(self, lists: list[Indices]) -> None:
         start = time.perf_counter()
         est = self.estimation
-        scorers = [
-            FilterScorer(
-                self._z, indices, est.Ts, self.s, self._regressions, self.criterion_x0,
-                self.max_radius, self.trend_degree,
-            )
-            for indices in lists
-        ]
+        scorers = [self._scorer(indices) for indices in lists]
         seeds = [np.random.default_rng([self.seed, *indices]) for indices in lists]
         tuned = tune_filters(scorers, self.omega, self.tuning, self.iterations, seeds)
         share = (time.perf_counter() - start) / len(lists)

@@ -546,8 +546,13 @@ class FilterScorer:
             return A, B, C
         return _fit_cached([self], [etas])[0]
 
-    def _realize(self, thetas: list[np.ndarray], parts: list[list[np.ndarray]]) -> tuple[np.ndarray, ...]:
-        """State-space batch of the per-output parameters ``thetas`` (divisors ``parts``)."""
+    def realize(self, thetas: list[np.ndarray], parts: list[list[np.ndarray]]) -> tuple[np.ndarray, ...]:
+        """State-space batch ``(A, B, C[, D])`` of per-output parameters.
+
+        ``thetas[j]`` holds output ``j``'s parameters of each model (rows), as
+        :meth:`RegressionCache.thetas` gives them; ``parts[r][j]`` is model ``r``'s
+        divisor for output ``j``. Needs the scorer's cache.
+        """
         m = self.z.shape[1] - len(self.indices)
         if not self.cache.feedthrough:
             return realize(thetas, parts, self.indices, m)
@@ -628,7 +633,7 @@ def _fit_cached(scorers: Sequence[FilterScorer], etas: Sequence[np.ndarray]) -> 
     filters = [cache.filters(np.asarray(e, float), sc.indices, sc.Ts, sc.s) for sc, e in zip(scorers, etas)]
     keys = cache.solve([(full, parts, sc.indices) for (full, parts), sc in zip(filters, scorers)])
     return [
-        sc._realize(cache.thetas(k, sc.indices), parts) for sc, k, (_, parts) in zip(scorers, keys, filters)
+        sc.realize(cache.thetas(k, sc.indices), parts) for sc, k, (_, parts) in zip(scorers, keys, filters)
     ]
 
 
