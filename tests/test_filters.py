@@ -4,7 +4,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import moli
-from moli.filters import filter_divisors, filter_roots, filter_rows
+from moli.filters import _schur_stable, filter_divisors, filter_roots, filter_rows
 
 indices_lists = st.lists(st.integers(1, 7), min_size=1, max_size=4)
 
@@ -111,3 +111,19 @@ def test_filter_rows_rejects_bad_candidates():
         filter_rows(np.array([[0.5, 0.7], [-1.0, 0.7]]), (2, 1))
     with pytest.raises(moli.FilterError, match="spacing"):
         filter_rows(np.array([[0.5, 0.7]]), (2, 1), s=1.0)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    moduli=st.lists(st.floats(0.05, 1.5), min_size=1, max_size=6),
+    angles=st.lists(st.floats(0.0, np.pi), min_size=6, max_size=6),
+)
+def test_stability_test_agrees_with_the_roots(moduli, angles):
+    # conjugate pairs for the first half of the moduli, real roots (either sign) after
+    half = len(moduli) // 2
+    pairs = [m * np.exp(1j * a) for m, a in zip(moduli[:half], angles)]
+    reals = [m * np.sign(np.cos(a)) or m for m, a in zip(moduli[half:], angles[half:])]
+    coeffs = np.real(np.poly(np.concatenate([pairs, np.conj(pairs), reals])))
+    radius = np.max(np.abs(np.roots(coeffs)))
+    if abs(radius - 1.0) > 1e-9:          # on the circle, round-off may decide either way
+        assert _schur_stable(coeffs) == (radius < 1.0)

@@ -128,6 +128,8 @@ def check_alpha(alpha: Sequence[float]) -> np.ndarray:
         raise FilterError(f"alpha must be finite with degree >= 1, got {coeffs}")
     if coeffs[0] != 1.0:
         raise FilterError(f"alpha must be monic (leading coefficient 1), got leading {coeffs[0]}")
+    if _schur_stable(coeffs):
+        return coeffs
     radius = np.max(np.abs(np.roots(coeffs)))
     if radius >= 1.0:
         raise FilterError(
@@ -135,6 +137,21 @@ def check_alpha(alpha: Sequence[float]) -> np.ndarray:
             f"its largest root modulus is {radius:.6g}"
         )
     return coeffs
+
+
+def _schur_stable(coeffs: np.ndarray) -> bool:
+    """Whether every root is strictly inside the unit circle (Schur-Cohn reflection test).
+
+    Cheaper than the roots for the small degrees of filters; a polynomial it cannot
+    certify (a reflection coefficient of modulus 1 or more) is left to the roots.
+    """
+    a = coeffs.tolist()
+    while len(a) > 1:
+        k = a[-1] / a[0]
+        if not abs(k) < 1.0:
+            return False
+        a = [(x - k * y) for x, y in zip(a[:-1], a[:0:-1])]
+    return True
 
 
 def _poly(roots: np.ndarray) -> np.ndarray:

@@ -121,9 +121,26 @@ def tune_output_cutoffs(scorer: FilterScorer, eta: np.ndarray, omega: np.ndarray
     for j in range(p):
         choices[1 + j * (K - 1) : 1 + (j + 1) * (K - 1), j] = np.arange(1, K)
     batch = models(choices)
-    costs = scorer.criterion(batch)
-    per_output = np.column_stack([np.full(p, costs[0]), costs[1:].reshape(p, K - 1)])
-    combined = per_output.argmin(axis=1)
+    # the fit first; the pole-radius rule (J = 1) only for the models that could win,
+    # which gives the winners of the rule applied to all at a fraction of the eigenvalues
+    costs = scorer.criterion(batch, radius_rule=False)
+    checked = np.zeros(len(costs), bool)
+    checked[0] = True                       # the shared filter's J is reported as it is
+    if scorer.too_slow(batch[0][:1])[0]:
+        costs[0] = 1.0
+
+    def winners() -> np.ndarray:
+        while True:
+            per_output = np.column_stack([np.full(p, costs[0]), costs[1:].reshape(p, K - 1)])
+            picks = per_output.argmin(axis=1)
+            rows = np.unique(np.where(picks > 0, 1 + np.arange(p) * (K - 1) + picks - 1, 0))
+            rows = rows[~checked[rows]]
+            if not rows.size:
+                return picks
+            checked[rows] = True
+            costs[rows[scorer.too_slow(batch[0][rows])]] = 1.0
+
+    combined = winners()
     if np.count_nonzero(combined) > 1:
         last = models(combined[None])
         choices = np.vstack([choices, combined])

@@ -562,8 +562,12 @@ class FilterScorer:
         """J of each candidate and the batch of fitted models ``(A, B, C[, D])``."""
         return score_lists([self], [etas])[0]
 
-    def criterion(self, matrices: tuple[np.ndarray, ...]) -> np.ndarray:
-        """J of a batch of models ``(A, B, C[, D])`` on this scorer's record."""
+    def criterion(self, matrices: tuple[np.ndarray, ...], radius_rule: bool = True) -> np.ndarray:
+        """J of a batch of models ``(A, B, C[, D])`` on this scorer's record.
+
+        With ``radius_rule=False`` the models are scored by their fit alone; the
+        caller then applies :meth:`too_slow` to the ones it keeps.
+        """
         A, B, C = matrices[:3]
         yhat = simulate_batch(A, B, C, self.u)
         if len(matrices) == 4:
@@ -571,10 +575,15 @@ class FilterScorer:
         if self.x0 == "estimate":
             yhat = yhat + _initial_response(A, C, self.y[None] - yhat)
         ratio = error_ratio(self.y, yhat, self.trend_degree, self.y_var)
-        if self.max_radius is not None:
-            radius = np.max(np.abs(np.linalg.eigvals(A)), axis=1)
-            ratio[radius >= self.max_radius] = 1.0
+        if radius_rule:
+            ratio[self.too_slow(A)] = 1.0
         return ratio.mean(axis=1)
+
+    def too_slow(self, A: np.ndarray) -> np.ndarray:
+        """Which models of the batch ``A`` (R, n, n) have a pole of modulus ``max_radius`` or more."""
+        if self.max_radius is None:
+            return np.zeros(A.shape[0], bool)
+        return np.max(np.abs(np.linalg.eigvals(A)), axis=1) >= self.max_radius
 
 
 def score_lists(
