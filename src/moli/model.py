@@ -125,6 +125,20 @@ class StateSpaceModel:
             return None
         return tuple(alpha_divisors(self.alpha, self.indices))
 
+    def with_matrices(
+        self, A: object, B: object, C: object, D: object | None, info: dict[str, Any],
+        divisors: Sequence[Sequence[float]] | None,
+    ) -> "StateSpaceModel":
+        """The same channels, structure and operating point with new matrices and filters.
+
+        ``divisors`` given: per-output filters (``alpha`` dropped); None keeps ``alpha``.
+        """
+        return StateSpaceModel(
+            A, B, C, D, Ts=self.Ts, output_names=self.output_names, input_names=self.input_names,
+            indices=self.indices, alpha=self.alpha if divisors is None else None,
+            y_offset=self.y_offset, u_offset=self.u_offset, info=info, divisors=divisors,
+        )
+
     @property
     def n(self) -> int:
         """Order (number of states)."""

@@ -341,9 +341,5 @@ def refine(
     info = dict(model.info)
     info.update({"refined": True, "refine_iterations": accepted, "refine_ridge": ridge,
                  "refine_cost_start": cost_start, "refine_cost": cost})
-    refined = StateSpaceModel(
-        A, B, C, F, Ts=model.Ts, output_names=model.output_names, input_names=model.input_names,
-        indices=model.indices, alpha=model.alpha, y_offset=model.y_offset,
-        u_offset=model.u_offset, info=info, divisors=model.divisors,
-    )
+    refined = model.with_matrices(A, B, C, F, info, model.divisors)
     return RefineResult(refined, x0, cost_start, cost, accepted, rejected)

@@ -173,14 +173,9 @@ class StructureSearch:
             return
         A, B, C = found.matrices[:3]
         D = found.matrices[3] if len(found.matrices) == 4 else None
-        old = step.model
-        info = dict(old.info, J=found.J, output_wc=found.etas[:, 0].tolist(),
+        info = dict(step.model.info, J=found.J, output_wc=found.etas[:, 0].tolist(),
                     output_zeta=found.etas[:, 1].tolist())
-        step.model = StateSpaceModel(
-            A, B, C, D, Ts=old.Ts, output_names=old.output_names, input_names=old.input_names,
-            indices=old.indices, y_offset=old.y_offset, u_offset=old.u_offset, info=info,
-            divisors=found.divisors,
-        )
+        step.model = step.model.with_matrices(A, B, C, D, info, found.divisors)
         step.J = found.J
         step.output_etas = found.etas
 
