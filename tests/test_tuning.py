@@ -77,6 +77,25 @@ def test_auto_feedthrough_drops_an_absent_one_and_keeps_a_present_one():
     assert mats[3][0, 1, 0] == pytest.approx(0.5, abs=0.05)
 
 
+def test_auto_feedthrough_splits_a_duplicated_input_evenly():
+    # two identical input channels make the regressors rank deficient: the tested
+    # solve falls back to the minimum-norm solution, which gives each copy half of
+    # the true input's coefficients
+    A, B, C = _random_system(4, 2, 1, seed=9)
+    D = np.array([[0.6], [0.0]])
+    z = _data(A, B, C, D)
+    z = np.concatenate([z, z[:, 2:]], axis=1)
+    _, (Ah, Bh, Ch, Dh) = FilterScorer(z, (2, 2), 1.0, 2.0, RegressionCache(z, 2, "auto")).score(
+        np.array([[0.5, 0.8]])
+    )
+    # noise-free data: exact fit, so round-off (amplified by the conditioning) is the only error
+    np.testing.assert_allclose(Dh[0], [[0.3, 0.3], [0.0, 0.0]], atol=1e-8)
+    np.testing.assert_allclose(Bh[0, :, 0], Bh[0, :, 1], atol=1e-8)
+    truth = moli.StateSpaceModel(A, B, C, D).markov(12)
+    fitted = moli.StateSpaceModel(Ah[0], Bh[0], Ch[0], Dh[0]).markov(12)
+    np.testing.assert_allclose(fitted.sum(axis=-1), truth[..., 0], atol=1e-8)
+
+
 def test_bad_feedthrough_choice_raises():
     with pytest.raises(OptionError, match="feedthrough"):
         RegressionCache(np.zeros((10, 2)), 1, feedthrough="sometimes")

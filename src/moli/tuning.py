@@ -282,28 +282,27 @@ class RegressionCache:
         q0 = q1 - m
         norms = np.sqrt(np.add.reduce(small * small, axis=1, keepdims=True))   # np.linalg.norm's sums
         norms[norms == 0] = 1.0
-        scaled = np.empty((count, k_rows, q1 + 1))
-        np.divide(small, norms, out=scaled[:, :, :q1])
-        scaled[:, :, q1] = rhs
-        r = np.linalg.qr(scaled, mode="r")
-        rss1 = r[:, q1, q1] ** 2
-        rss0 = np.sum(r[:, q0 : q1 + 1, q1] ** 2, axis=1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            statistic = (rss0 - rss1) / m / (rss1 / dof)
-        keep = ~(statistic <= _f_critical(m, dof))    # NaN (exact fit) keeps the feedthrough
-        diag = np.abs(r.diagonal(axis1=1, axis2=2))
+        # each matrix stored column by column for LAPACK, factored in place one at a
+        # time: most batches hold one or two filters, where a stacked np.linalg.qr and
+        # solve cost several times the arithmetic (same routines, same R)
+        scaled = np.empty((count, q1 + 1, k_rows))
+        np.divide(small.transpose(0, 2, 1), norms.transpose(0, 2, 1), out=scaled[:, :q1])
+        scaled[:, q1] = rhs
+        critical = _f_critical(m, dof)
         theta = np.zeros((count, q1))
-        cond = np.empty(count)
-        for k, rows in ((q1, keep), (q0, ~keep)):
-            if not rows.any():
-                continue
-            with np.errstate(divide="ignore"):
-                cond[rows] = diag[rows, :k].max(axis=1) / diag[rows, :k].min(axis=1)
-            good = rows & (cond < 1e13)
-            if good.any():
-                theta[good, :k] = np.linalg.solve(r[good, :k, :k], r[good, :k, q1, None])[..., 0]
-            for i in np.flatnonzero(rows & ~good):    # rank deficient: minimum-norm solution
-                theta[i, :k] = scipy.linalg.lstsq(scaled[i, :, :k], rhs[i])[0]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for i in range(count):
+                r = scipy.linalg.lapack.dgeqrf(scaled[i].T, overwrite_a=True)[0]
+                rss1 = r[q1, q1] ** 2
+                tail = r[q0 : q1 + 1, q1]
+                statistic = (tail @ tail - rss1) / m / (rss1 / dof)
+                k = q0 if statistic <= critical else q1    # NaN (exact fit) keeps the feedthrough
+                diag = np.abs(r.diagonal()[:k])
+                smallest = diag.min()
+                if smallest > 0 and diag.max() / smallest < 1e13:
+                    theta[i, :k] = scipy.linalg.lapack.dtrtrs(r[:k, :k], r[:k, q1])[0]
+                else:                                      # rank deficient: minimum-norm solution
+                    theta[i, :k] = scipy.linalg.lstsq(small[i, :, :k] / norms[i, 0, :k], rhs[i])[0]
         return theta / norms[:, 0, :]
 
 
@@ -786,7 +785,8 @@ def tune_filters(
     starts = [scorer.evaluations for scorer in scorers]
     trackers = [_Tracker() for _ in scorers]
     centers = []
-    for tracker, (costs, matrices) in zip(trackers, score_lists(scorers, [omega] * len(scorers))):
+    grid_scores = score_lists(scorers, [omega] * len(scorers))
+    for tracker, (costs, matrices) in zip(trackers, grid_scores):
         tracker.offer(omega, costs, matrices)
         centers.append(barycenter(omega, costs))
     grid_best = [tracker.J for tracker in trackers]
@@ -800,17 +800,16 @@ def tune_filters(
     low, high = omega.min(axis=0), omega.max(axis=0)
     spread = 0.2 * (high - low)
     for _ in range(steps):
-        etas = [
-            np.vstack([
-                center,
-                omega[rng.choice(len(omega), size=min(3, len(omega)), replace=False)],
-                np.clip(center + spread * rng.standard_normal((3, 2)), low, high),
-            ])
+        drawn = [rng.choice(len(omega), size=min(3, len(omega)), replace=False) for rng in rngs]
+        fresh = [
+            np.vstack([center, np.clip(center + spread * rng.standard_normal((3, 2)), low, high)])
             for center, rng in zip(centers, rngs)
         ]
-        for i, (costs, matrices) in enumerate(score_lists(scorers, etas)):
-            trackers[i].offer(etas[i], costs, matrices)
-            centers[i] = barycenter(etas[i], costs)
+        for i, (costs, matrices) in enumerate(score_lists(scorers, fresh)):
+            trackers[i].offer(fresh[i], costs, matrices)
+            # the grid points drawn keep the J they scored in the grid round
+            etas = np.vstack([fresh[i][:1], omega[drawn[i]], fresh[i][1:]])
+            centers[i] = barycenter(etas, np.concatenate([costs[:1], grid_scores[i][0][drawn[i]], costs[1:]]))
     results = []
     last = score_lists(scorers, [center[None] for center in centers])
     for tracker, center, (cost, matrices), best, scorer, start in zip(
