@@ -98,14 +98,19 @@ def _block_states(step: np.ndarray, drive: np.ndarray, x0: np.ndarray | None, R:
     growth.
     """
     nb = drive.shape[1]
-    states = np.empty((R, nb, n))
-    states[:, 0] = 0.0 if x0 is None else np.asarray(x0, float).reshape(R, n)
+    # blocks first, so that each step reads and writes whole (R, 1, n) blocks taken
+    # from prebuilt lists: the loop costs Python a call per product, not the slicing
+    states = np.empty((nb, R, 1, n))
+    states[0] = 0.0 if x0 is None else np.asarray(x0, float).reshape(R, 1, n)
+    blocks = list(states)
+    drives = list(np.ascontiguousarray(drive.transpose(1, 0, 2)).reshape(nb, R, 1, n))
     step = step.transpose(0, 2, 1)                      # acts on row vectors: x P^T
     carry = np.empty((R, 1, n))
     for b in range(nb - 1):
-        np.matmul(states[:, b : b + 1], step, out=carry)
-        np.add(carry, drive[:, b : b + 1], out=states[:, b + 1 : b + 2])
-    return states
+        np.matmul(blocks[b], step, out=carry)
+        np.add(carry, drives[b], out=blocks[b + 1])
+    return np.ascontiguousarray(states.reshape(nb, R, n).transpose(1, 0, 2))
+
 
 def free_response(A: np.ndarray, C: np.ndarray, N: int) -> np.ndarray:
     """Responses ``C A^k e_i`` to each unit initial state, shape (N, p, n)."""
