@@ -8,6 +8,7 @@ all of them are delays of the single filtered signal ``lfilter(1, alpha_j, z)``.
 
 from __future__ import annotations
 
+import functools
 import warnings
 from itertools import accumulate
 from typing import Sequence
@@ -125,6 +126,18 @@ def realize(
     return _observer_form(thetas, alphas, indices, m)[:3]
 
 
+@functools.lru_cache(maxsize=None)
+def _companion_layout(indices: Indices) -> tuple[np.ndarray, tuple[int, ...]]:
+    """The ones of the observer form's companion blocks (an ``n x n`` matrix) and each block's start."""
+    n = sum(indices)
+    starts = tuple(accumulate(indices, initial=0))[:-1]
+    shift = np.zeros((n, n))
+    for s, l in zip(starts, indices):
+        shift[range(s + 1, s + l), range(s, s + l - 1)] = 1.0
+    shift.flags.writeable = False
+    return shift, starts
+
+
 def _observer_form(
     thetas: Sequence[np.ndarray], alphas: Sequence[Sequence[np.ndarray]], indices: Indices, m: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -137,14 +150,15 @@ def _observer_form(
     p = len(indices)
     R = thetas[0].shape[0]
     n = sum(indices)
-    A_D = np.zeros((R, n, n))
-    D = np.zeros((R, n, p))
-    B = np.zeros((R, n, m))
+    shift, starts = _companion_layout(tuple(indices))
+    A_D = np.empty((R, n, n))
+    A_D[:] = shift
+    D = np.empty((R, n, p))
+    B = np.empty((R, n, m))
     C = np.zeros((R, p, n))
-    for j, (l, s) in enumerate(zip(indices, accumulate(indices, initial=0))):
+    for j, (l, s) in enumerate(zip(indices, starts)):
         block = slice(s, s + l)
-        A_D[:, range(s + 1, s + l), range(s, s + l - 1)] = 1.0
-        A_D[:, block, s + l - 1] = -np.array([alphas[r][j][:0:-1] for r in range(R)])
+        A_D[:, block, s + l - 1] = -np.array([alpha[j][:0:-1] for alpha in alphas])
         coeffs = thetas[j][:, : (p + m) * l].reshape(R, p + m, l).transpose(0, 2, 1)
         D[:, block] = coeffs[:, :, :p]
         B[:, block] = coeffs[:, :, p:]

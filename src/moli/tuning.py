@@ -471,14 +471,16 @@ def error_ratio(
     with np.errstate(all="ignore"):
         # samples first: the sums run over long contiguous rows, the same sequential
         # sums as along axis 1 of (R, N, p) but several times faster
-        error = y[:, None, :] - np.ascontiguousarray(yhat.transpose(1, 0, 2))
+        # in place: each record-sized temporary costs about as much as the arithmetic
+        error = yhat.transpose(1, 0, 2).copy(order="C")      # never a view of yhat
+        np.subtract(y[:, None, :], error, out=error)
         if degree == 0:
             ratio = np.var(error, axis=0) / y_var
         else:
             N = y.shape[0]
             basis = _trend_basis(N, degree)
             flat = error.reshape(N, -1)
-            flat = flat - basis @ (basis.T @ flat)
+            flat -= basis @ (basis.T @ flat)
             ratio = np.einsum("ij,ij->j", flat, flat).reshape(error.shape[1:]) / (N * y_var)
     return np.where(np.isfinite(ratio), np.minimum(ratio, 1.0), 1.0)
 
