@@ -138,6 +138,20 @@ def _companion_layout(indices: Indices) -> tuple[np.ndarray, tuple[int, ...]]:
     return shift, starts
 
 
+def _filter_companion(divisors_: Sequence[np.ndarray], indices: Indices) -> np.ndarray:
+    """The observer's block companion matrices ``A_D`` of a batch of per-output filters.
+
+    ``divisors_[j]`` holds output ``j``'s monic filter polynomial of each model, shape
+    (R, l_j + 1); the result has shape (R, n, n).
+    """
+    shift, starts = _companion_layout(tuple(indices))
+    A_D = np.empty((divisors_[0].shape[0],) + shift.shape)
+    A_D[:] = shift
+    for alpha_j, l, s in zip(divisors_, indices, starts):
+        A_D[:, s : s + l, s + l - 1] = -alpha_j[:, :0:-1]
+    return A_D
+
+
 def _observer_form(
     thetas: Sequence[np.ndarray], alphas: Sequence[Sequence[np.ndarray]], indices: Indices, m: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -150,15 +164,12 @@ def _observer_form(
     p = len(indices)
     R = thetas[0].shape[0]
     n = sum(indices)
-    shift, starts = _companion_layout(tuple(indices))
-    A_D = np.empty((R, n, n))
-    A_D[:] = shift
+    A_D = _filter_companion([np.array([alpha[j] for alpha in alphas]) for j in range(p)], indices)
     D = np.empty((R, n, p))
     B = np.empty((R, n, m))
     C = np.zeros((R, p, n))
-    for j, (l, s) in enumerate(zip(indices, starts)):
+    for j, (l, s) in enumerate(zip(indices, _companion_layout(tuple(indices))[1])):
         block = slice(s, s + l)
-        A_D[:, block, s + l - 1] = -np.array([alpha[j][:0:-1] for alpha in alphas])
         coeffs = thetas[j][:, : (p + m) * l].reshape(R, p + m, l).transpose(0, 2, 1)
         D[:, block] = coeffs[:, :, :p]
         B[:, block] = coeffs[:, :, p:]

@@ -29,6 +29,7 @@ import scipy.fft
 
 from .data import IOData
 from .errors import DataError, OptionError
+from .estimation import _filter_companion
 from .model import StateSpaceModel
 from .simulation import free_response, simulate_batch
 
@@ -77,14 +78,10 @@ def observer_form(model: StateSpaceModel) -> ObserverForm:
         raise DataError("refinement needs a MOLI model that carries its indices and filter polynomials")
     indices = model.indices
     n, p = model.n, model.p
-    A_D = np.zeros((n, n))
+    A_D = _filter_companion([alpha_j[None] for alpha_j in filters], indices)[0]
     C_D = np.zeros((p, n))
     last = np.cumsum(indices) - 1
-    for j, (alpha_j, l) in enumerate(zip(filters, indices)):
-        s = last[j] - l + 1
-        A_D[s + 1 : s + l, s : s + l - 1] = np.eye(l - 1)
-        A_D[s : s + l, s + l - 1] = -alpha_j[:0:-1]
-        C_D[j, last[j]] = 1.0
+    C_D[np.arange(p), last] = 1.0
     inverse = model.C[:, last]              # (I - G)^-1, unit lower triangular
     G = np.eye(p) - np.linalg.inv(inverse)  # p x p triangular, p small
     G = np.tril(G, -1)

@@ -11,7 +11,6 @@ import numpy as np
 from .data import IOData
 from .errors import DataError
 from .estimation import check_sample_count
-from .filters import filter_polynomial
 from .model import StateSpaceModel
 from .structure import Indices, compositions, raised
 from .output_filters import tune_output_cutoffs
@@ -188,10 +187,11 @@ class StructureSearch:
         share = (time.perf_counter() - start) / len(lists)
         for indices, result in zip(lists, tuned):
             wc, zeta = result.eta
+            # the filter the model was estimated with, as the search built it
+            alpha = self._regressions.filters(result.eta[None], indices, est.Ts, self.s)[0][0]
             model = StateSpaceModel(
                 result.A, result.B, result.C, result.D, Ts=est.Ts, output_names=est.output_names,
-                input_names=est.input_names, indices=indices,
-                alpha=filter_polynomial(wc, zeta, indices, est.Ts, self.s),
+                input_names=est.input_names, indices=indices, alpha=alpha,
                 y_offset=est.y_offset, u_offset=est.u_offset,
                 info={"wc": float(wc), "zeta": float(zeta), "s": self.s, "J": result.J,
                       "J_barycenter": result.J_barycenter, "evaluations": result.evaluations},

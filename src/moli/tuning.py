@@ -47,7 +47,7 @@ PAPER_WCS_PER_TS = tuple(0.02 * np.pi * 10 ** (0.25 * k) for k in range(6))
 JOINT_BATCH_VALUES = 2**17
 # Block size of the QR of the filtered data: the record-long matrices have a few dozen
 # columns, too few for LAPACK's blocked dgeqrf (which then applies one reflector at a
-# time); dgeqrt in blocks of 8 took 20-40 % less time on 433 x 30 to 645 x 90
+# time); dgeqrt in blocks of 8 took 17-44 % less time on 433 x 30 to 645 x 90
 QR_BLOCK = 8
 
 
@@ -470,9 +470,10 @@ def error_ratio(
     y_var = np.var(y, axis=0) if y_var is None else y_var
     with np.errstate(all="ignore"):
         # samples first: the sums run over long contiguous rows, the same sequential
-        # sums as along axis 1 of (R, N, p) but several times faster
-        # in place: each record-sized temporary costs about as much as the arithmetic
-        error = yhat.transpose(1, 0, 2).copy(order="C")      # never a view of yhat
+        # sums as along axis 1 of (R, N, p) but several times faster; the error is then
+        # formed in place in that copy (a record-sized temporary costs about as much as
+        # the arithmetic), never in a view of yhat
+        error = yhat.transpose(1, 0, 2).copy(order="C")
         np.subtract(y[:, None, :], error, out=error)
         if degree == 0:
             ratio = np.var(error, axis=0) / y_var
