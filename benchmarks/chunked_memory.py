@@ -13,9 +13,9 @@ import time
 import numpy as np
 
 import moli
-from moli.chunked import ChunkedEstimator
-from moli.estimation import filtered_regressors, realize, solve_batch
-from moli.filters import divisors
+from moli.streaming.chunked import ChunkedEstimator
+from moli.method.estimation import filtered_regressors, realize, solve_batch
+from moli.method.filters import divisors
 from streaming_plant import StreamingPlant
 
 

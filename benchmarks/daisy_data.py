@@ -6,7 +6,7 @@ import os
 from pathlib import Path
 
 import moli
-from moli.datasets import load_daisy
+from moli.data.daisy import load_daisy
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -27,7 +27,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 import moli  # noqa: E402
-from moli.datasets import load_daisy  # noqa: E402
+from moli.data.daisy import load_daisy  # noqa: E402
 from moli.validation import compare  # noqa: E402
 
 BLOCK = 500

@@ -59,7 +59,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import peers_lib as pl  # noqa: E402
 
 import moli  # noqa: E402
-from moli.datasets import load_daisy  # noqa: E402
+from moli.data.daisy import load_daisy  # noqa: E402
 
 BLOCK = 500
 WINDOWS = 11

@@ -36,7 +36,7 @@ from typing import Any, Callable
 import numpy as np
 
 from moli import StateSpaceModel
-from moli.metrics import vaf
+from moli.validation.metrics import vaf
 
 ABCD = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 

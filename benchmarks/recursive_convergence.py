@@ -13,8 +13,8 @@ import warnings
 import numpy as np
 
 import moli
-from moli.chunked import ChunkedEstimator
-from moli.recursive import RecursiveMoli
+from moli.streaming.chunked import ChunkedEstimator
+from moli.streaming.recursive import RecursiveMoli
 from streaming_plant import StreamingPlant
 
 INDICES = (2, 2, 2)

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from moli.simulation import simulate_batch
+from moli.models.simulation import simulate_batch
 
 
 class StreamingPlant:

@@ -14,8 +14,8 @@ import single_thread  # noqa: F401  (before numpy: one BLAS thread)
 import numpy as np
 
 import moli
-from moli.recursive import RecursiveMoli
-from moli.simulation import simulate_batch
+from moli.streaming.recursive import RecursiveMoli
+from moli.models.simulation import simulate_batch
 from streaming_plant import StreamingPlant
 
 INDICES = (2, 2, 2)

@@ -22,7 +22,7 @@ import argparse
 from pathlib import Path
 
 import moli
-from moli.report import write_report
+from moli.app.report import write_report
 
 
 def export_csv(data: moli.IOData, path: Path) -> None:

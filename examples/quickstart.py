@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 import moli
-from moli.report import write_report
+from moli.app.report import write_report
 
 
 def main(out: Path) -> None:

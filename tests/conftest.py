@@ -9,7 +9,7 @@ import pytest
 from threadpoolctl import threadpool_limits
 
 import moli
-import moli.datasets
+import moli.data.daisy
 
 REPO = Path(__file__).resolve().parents[1]
 
@@ -30,7 +30,7 @@ def load_shared(name: str) -> moli.IOData:
     folder = daisy_dir()
     if folder is None or not (folder / f"{name}.dat").is_file():
         pytest.skip(f"DaISy {name}.dat not found: set MOLI_DATA_DIR to the DaISy folder")
-    return moli.datasets.load_daisy(name, data_dir=folder)
+    return moli.data.daisy.load_daisy(name, data_dir=folder)
 
 
 @pytest.fixture

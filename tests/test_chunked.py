@@ -5,10 +5,10 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import moli
-from moli.chunked import ChunkedEstimator
+from moli.streaming.chunked import ChunkedEstimator
 from moli.errors import DataError, FilterError, OptionError, StructureError
-from moli.estimation import filtered_regressors, realize
-from moli.filters import divisors
+from moli.method.estimation import filtered_regressors, realize
+from moli.method.filters import divisors
 
 from systems_util import plant_record
 

@@ -12,8 +12,8 @@ import pytest
 from click.testing import CliRunner, Result
 
 import moli
-from moli import cli
-from moli.io import fingerprint
+from moli.app import cli
+from moli.data.files import fingerprint
 
 INPUTS, OUTPUTS = "u1,u2,u3", "y1,y2,y3"
 NMAX = 4  # the path 3, 4: enough to exercise the search and the order rule, fast
@@ -104,7 +104,7 @@ def test_fit_preset_gives_the_api_model(tmp_path, csv_file, record):
     expected = moli.identify(est, val, nmax=NMAX, preset="paper").model
     saved = moli.load_model(model_path)
     np.testing.assert_array_equal(saved.A, expected.A)
-    assert saved.info["options"]["preset"] == "paper"
+    assert moli.IdentifyOptions.from_dict(saved.info["options"]) == moli.IdentifyOptions.paper(nmax=NMAX)
     # an unknown choice is a usage error, reported by click with the valid choices
     wrong = run("fit", str(csv_file), "--preset", "fast")
     assert wrong.exit_code == 2 and "'fast' is not one of 'improved', 'bounded', 'paper'" in wrong.stderr

@@ -91,7 +91,7 @@ def loops():
     """
     rig = TwinRotor()
     data = identification_experiment(rig, seed=0)
-    omega = moli.tuning.grid(np.array([0.8, 1.04, 1.28, 1.52, 1.76, 2.0]) * np.pi, [0.5, 0.625, 0.75])
+    omega = moli.method.tuning.grid(np.array([0.8, 1.04, 1.28, 1.52, 1.76, 2.0]) * np.pi, [0.5, 0.625, 0.75])
     model = moli.identify(
         data[:150], validation=data, omega=omega, nmax=8, seed=0, center=False, feedthrough=False
     ).model  # the servo design needs a strictly proper model

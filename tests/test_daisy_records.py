@@ -4,8 +4,10 @@ import numpy as np
 
 import moli
 from conftest import load_shared
-from moli.simulation import simulate_batch
-from moli.tuning import FilterScorer, RegressionCache, default_omega
+from moli.models.simulation import simulate_batch
+from moli.method.regression import RegressionCache
+from moli.method.scoring import FilterScorer
+from moli.method.tuning import default_omega
 
 
 def _half_half(name: str, nmax: int, **options) -> moli.IdentificationResult:

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from moli import datasets
+from moli.data import daisy as datasets, daisy_catalog
 from moli.data import IOData
 from moli.errors import DataError, MoliError, OptionError
 
@@ -175,11 +175,11 @@ TINY = b"1 10 100\n2 20 200\n3 30 300\n"
 @pytest.fixture
 def tiny(monkeypatch: pytest.MonkeyPatch) -> list[str]:
     """Register a 3x3 set 'tiny' (time, u, y) and serve it gzipped; return the URLs fetched."""
-    spec = datasets._Spec(
+    spec = daisy_catalog.DaisySpec(
         "thermic", "test set", (3, 3), (1,), (2,), ("u",), ("y",), 0.5,
         sha256=hashlib.sha256(TINY).hexdigest(),
     )
-    monkeypatch.setitem(datasets._SPECS, "tiny", spec)
+    monkeypatch.setitem(daisy_catalog.SPECS, "tiny", spec)
     fetched: list[str] = []
 
     def serve(url: str, timeout: float) -> io.BytesIO:
@@ -225,8 +225,8 @@ def test_checksum_mismatch_raises_and_keeps_nothing(
 def test_unchecksummed_download_is_checked_for_shape(
     tiny: list[str], offline: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    spec = datasets._SPECS["tiny"]
-    monkeypatch.setitem(datasets._SPECS, "tiny", datasets._Spec(
+    spec = daisy_catalog.SPECS["tiny"]
+    monkeypatch.setitem(daisy_catalog.SPECS, "tiny", daisy_catalog.DaisySpec(
         spec.folder, spec.description, (3, 4), spec.u_cols, spec.y_cols, spec.inputs,
         spec.outputs, spec.Ts))
     with pytest.raises(DataError, match=r"shape \(3, 3\), expected \(3, 4\)"):

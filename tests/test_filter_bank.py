@@ -5,11 +5,11 @@ import pytest
 
 import moli
 from moli.errors import OptionError
-from moli.filter_bank import FilterBank
-from moli.filters import filter_polynomial
-from moli.recursive import RecursiveMoli
-from moli.simulation import simulate_batch
-from moli.tuning import barycenter, grid
+from moli.streaming.filter_bank import FilterBank
+from moli.method.filters import filter_polynomial
+from moli.streaming.recursive import RecursiveMoli
+from moli.models.simulation import simulate_batch
+from moli.method.tuning import barycenter, grid
 
 from systems_util import plant_record
 

@@ -11,7 +11,7 @@ from scipy.io import savemat
 
 import moli
 from moli.errors import DataError
-from moli.io import fingerprint, from_dataframe, read_data, to_dataframe
+from moli.data.files import fingerprint, from_dataframe, read_data, to_dataframe
 
 RNG = np.random.default_rng(7)
 U = RNG.standard_normal((20, 2))

@@ -7,7 +7,7 @@ from hypothesis import strategies as st
 from scipy.signal import dlsim
 
 import moli
-from moli.simulation import simulate_batch
+from moli.models.simulation import simulate_batch
 
 from systems_util import random_system
 

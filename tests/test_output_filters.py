@@ -6,11 +6,13 @@ from hypothesis import given, settings, strategies as st
 
 import moli
 from moli.errors import DataError
-from moli.estimation import fit_batch
-from moli.filters import filter_divisors
-from moli.output_filters import tune_output_cutoffs
-from moli.refine import observer_form, refine
-from moli.tuning import FilterScorer, RegressionCache, default_omega, tune_filter
+from moli.method.estimation import fit_batch
+from moli.method.filters import filter_divisors
+from moli.method.output_filters import tune_output_cutoffs
+from moli.method.refinement import observer_form, refine
+from moli.method.regression import RegressionCache
+from moli.method.scoring import FilterScorer
+from moli.method.tuning import default_omega, tune_filter
 
 
 def _slow_and_fast(seed: int, N: int = 600, noise: float = 0.2) -> np.ndarray:
@@ -82,7 +84,7 @@ def test_identify_keeps_the_path_and_lowers_j_per_step():
     est, val = moli.example_data(N=700, seed=5).split(450)
     shared = moli.identify(est, val, nmax=6, output_filters=False)
     separate = moli.identify(est, val, nmax=6)
-    assert separate.options["output_filters"] is True
+    assert separate.options.output_filters is True
     # the greedy path compares lists with the shared filter, so it is the same path
     assert [s.indices for s in separate.path] == [s.indices for s in shared.path]
     changed = 0

@@ -6,10 +6,10 @@ from hypothesis import given, settings, strategies as st
 
 import moli
 from moli.errors import DataError, FilterError, OptionError, StructureError
-from moli.estimation import filtered_regressors
-from moli.filters import divisors
-from moli.recursive import RecursiveMoli
-from moli.simulation import simulate_batch
+from moli.method.estimation import filtered_regressors
+from moli.method.filters import divisors
+from moli.streaming.recursive import RecursiveMoli
+from moli.models.simulation import simulate_batch
 
 INDICES = (2, 2, 2)
 ALPHA = moli.filter_polynomial(0.5, 0.7, INDICES)

@@ -5,7 +5,7 @@ import pytest
 
 import moli
 from moli.errors import OptionError
-from moli.refine import _Problem, observer_form, refine
+from moli.method.refinement import _Problem, observer_form, refine
 
 
 def _plant(seed=0):
@@ -23,8 +23,8 @@ def _record(D=None, noise=0.0, N=400, seed=1, x0=None):
 
 
 def _start(data, feedthrough=False):
-    search = moli.selection.StructureSearch(
-        data, data, moli.tuning.default_omega(), "grid", feedthrough=feedthrough)
+    search = moli.method.search.StructureSearch(
+        data, data, moli.method.tuning.default_omega(), "grid", feedthrough=feedthrough)
     return search.fit((2, 1)).model
 
 
@@ -139,7 +139,7 @@ def test_identify_refines_the_selected_model():
     est, val = moli.example_data(N=600, seed=1).split(400)
     plain = moli.identify(est, val, nmax=5)
     refined = moli.identify(est, val, nmax=5, refine=True)
-    assert refined.options["refine"] == "selected"
+    assert refined.options.refine == "selected"
     assert refined.model.info.get("refined") is True
     assert refined.model.info["refine_cost"] <= refined.model.info["refine_cost_start"]
     # the path up to the order rule is the same search

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 import moli
-from moli import figures
-from moli.report import path_table, write_report
-from moli.selection import StructureSearch, exhaustive
+from moli.app import figures
+from moli.app.report import path_table, write_report
+from moli.method.search import StructureSearch, exhaustive
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -42,7 +42,7 @@ def test_path_table_marks_the_selected_row(result):
 
 def test_vaf_figure_draws_path_candidates_and_selection(result):
     search = StructureSearch(result.estimation, result.validation,
-                             np.array(result.options["omega"]))
+                             result.omega)
     tried = exhaustive(search, 4)
     ax = figures.vaf_by_order(result.path, tried, result.selected_index).axes[0]
     dots, line, ring = ax.lines

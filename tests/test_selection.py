@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 
 import moli
-from moli.selection import PathStep, StructureSearch, exhaustive, greedy_path, select_order
-from moli.tuning import default_omega
+from moli.method.search import PathStep, StructureSearch, exhaustive, greedy_path, select_order
+from moli.method.tuning import default_omega
 
 
 @pytest.fixture(scope="module")
@@ -25,14 +25,14 @@ def test_greedy_path_raises_one_index_per_step(search):
         diff = np.subtract(after.indices, before.indices)
         assert sorted(diff) == [0, 0, 1]
         # the kept list has the lowest J of the p candidates
-        rivals = [search.fit(c) for c in moli.structure.raised(before.indices)]
+        rivals = [search.fit(c) for c in moli.method.structure.raised(before.indices)]
         assert after.J == min(r.J for r in rivals)
 
 
 def test_exhaustive_fits_every_list(search):
     steps = exhaustive(search, 5)
     assert len(steps) == comb(4, 2)
-    assert {st.indices for st in steps} == set(moli.structure.compositions(5, 3))
+    assert {st.indices for st in steps} == set(moli.method.structure.compositions(5, 3))
 
 
 def _step(order, mean_vaf, stable=True):

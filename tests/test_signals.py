@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from moli.signals import SignalError, dwell_times, random_binary_signal
+from moli.data.signals import SignalError, dwell_times, random_binary_signal
 
 
 def test_levels_shape_and_seed():

@@ -10,10 +10,10 @@ from hypothesis import strategies as st
 
 import moli
 from moli.errors import OptionError
-import moli.tuning
-from moli.tuning import (
-    FilterScorer, RegressionCache, default_omega, error_ratio, grid, score_lists, tune_filter, tune_filters,
-)
+import moli.method.scoring
+from moli.method.regression import RegressionCache
+from moli.method.scoring import FilterScorer, error_ratio, score_lists
+from moli.method.tuning import default_omega, grid, tune_filter, tune_filters
 
 
 def _random_system(n, p, m, seed, radius=0.9):
@@ -112,7 +112,7 @@ def test_stability_bound_gives_the_worst_score():
 
 
 def test_initial_response_fits_a_free_response_exactly():
-    from moli.tuning import _initial_response
+    from moli.method.scoring import _initial_response
 
     A, B, C = _random_system(3, 2, 1, seed=4, radius=0.95)
     x0 = np.array([3.0, -2.0, 1.0])
@@ -147,13 +147,13 @@ def test_zoom_never_ends_worse_than_the_grid():
 def test_presets_and_their_errors():
     est, val = moli.example_data(N=500, seed=2).split(350)
     paper = moli.identify(est, val, nmax=4, preset="paper")
-    assert (paper.options["tuning"], paper.options["feedthrough"], paper.options["max_radius"]) == (
+    assert (paper.options.tuning, paper.options.feedthrough, paper.max_radius) == (
         "random", False, None)
     assert np.all(paper.model.D == 0.0)
     bounded = moli.identify(est, val, nmax=4, preset="bounded")
     # "auto" radius: time constants up to a tenth of the 350-sample record
-    assert bounded.options["max_radius"] == pytest.approx(np.exp(-10 / 350))
-    assert all(np.max(np.abs(st.model.poles())) < bounded.options["max_radius"] for st in bounded.path
+    assert bounded.max_radius == pytest.approx(np.exp(-10 / 350))
+    assert all(np.max(np.abs(st.model.poles())) < bounded.max_radius for st in bounded.path
                if st.J < 1.0)
     with pytest.raises(OptionError, match="preset"):
         moli.identify(est, val, nmax=4, preset="fast")
@@ -164,7 +164,7 @@ def test_presets_and_their_errors():
     with pytest.raises(OptionError, match="max_radius"):
         moli.identify(est, val, nmax=4, max_radius=True)
     default = moli.identify(est, val, nmax=4)
-    assert default.options["max_radius"] == 1.0
+    assert default.max_radius == 1.0
     assert all(st.stable for st in default.path if st.J < 1.0)
     # the default's bound on candidates the fit alone would score: on this record four
     # filters of the list (1, 2, 1) give an unstable model; those, and only those, score 1
@@ -178,7 +178,7 @@ def test_presets_and_their_errors():
     J_bounded, _ = bounded.score(default_omega())
     assert np.all(J_bounded[unstable] == 1.0) and np.all(J_free[unstable] < 1.0)
     np.testing.assert_array_equal(J_bounded[~unstable], J_free[~unstable])
-    assert moli.identify(est, val, nmax=4, max_radius="none").options["max_radius"] is None
+    assert moli.identify(est, val, nmax=4, max_radius="none").max_radius is None
 
 
 @settings(max_examples=40, deadline=None)
@@ -225,7 +225,7 @@ def test_trend_degree_zero_is_the_papers_J_and_bad_degrees_raise():
     for bad in (-1, 6, 1.5, True, "2"):
         with pytest.raises(OptionError, match="trend_degree"):
             moli.identify(est, val, nmax=4, trend_degree=bad)
-    assert moli.identify(est, val, nmax=4).options["trend_degree"] == 2
+    assert moli.identify(est, val, nmax=4).options.trend_degree == 2
 
 
 _JOINT_DATA = _data(*_random_system(5, 3, 2, seed=11), N=300, noise=0.1)
@@ -248,8 +248,8 @@ def test_joint_tuning_gives_each_list_its_own_result(lists, method, feedthrough,
     alone = [tune_filter(sc, omega, method, 2, seed) for seed, sc in enumerate(scorers(RegressionCache(z, 3, feedthrough)))]
     # a batch limit of one value puts every list in a chunk of its own; the default joins
     # them all (5 lists of 6 candidates, 300 samples, 3 outputs: 27,000 values)
-    limit = 1 if chunked else moli.tuning.JOINT_BATCH_VALUES
-    with mock.patch.object(moli.tuning, "JOINT_BATCH_VALUES", limit):
+    limit = 1 if chunked else moli.method.scoring.JOINT_BATCH_VALUES
+    with mock.patch.object(moli.method.scoring, "JOINT_BATCH_VALUES", limit):
         joint = tune_filters(scorers(RegressionCache(z, 3, feedthrough)), omega, method, 2, range(len(lists)))
     for a, b in zip(alone, joint):
         # the same problems, stacked differently: LAPACK and the products work matrix by

@@ -11,12 +11,12 @@ from scipy.integrate import solve_ivp
 
 import moli
 from moli.control import continuous_poles
-from moli.experiment import experiment
+from moli.systems.experiment import experiment
 from moli.systems import (
     RigLimitWarning, TwinRotor, TwinRotorError, TwinRotorParameters, identification_experiment,
 )
 
-OMEGA = moli.tuning.grid(np.array([0.8, 1.04, 1.28, 1.52, 1.76, 2.0]) * np.pi, [0.5, 0.625, 0.75])
+OMEGA = moli.method.tuning.grid(np.array([0.8, 1.04, 1.28, 1.52, 1.76, 2.0]) * np.pi, [0.5, 0.625, 0.75])
 NO_COULOMB = TwinRotorParameters(B2psi=0.0, B2phi=0.0)
 
 

@@ -1,23 +1,74 @@
-"""moli: multivariable linear system identification with MOLI-ZOFT."""
+"""moli: multivariable linear system identification with MOLI-ZOFT.
+
+The package follows the pipeline (docs/architecture.md): :mod:`moli.data` (records
+in) → :mod:`moli.method` (structure, filters, least squares, filter tuning, structure
+search) → :mod:`moli.models` (the state-space model) → :mod:`moli.validation` →
+:mod:`moli.streaming`, :mod:`moli.systems`, :mod:`moli.control` and :mod:`moli.app`
+(command line, reports). The names below are the public API (docs/api.md).
+
+``import moli`` loads only numpy and the error classes; each name's module is
+imported the first time the name is used, so the command line and small scripts start
+fast.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
-from .data import IOData
 from .errors import (
-    DataError, FilterError, IllConditionedWarning, ModelFileError, MoliError,
-    OptionError, StructureError, UnstableModelWarning,
+    DataError, FilterError, IllConditionedWarning, ModelFileError, MoliError, OptionError,
+    StructureError, UnstableModelWarning,
 )
-from .estimation import estimate
-from .filters import divisor, divisors, filter_polynomial
-from .metrics import cost_j, nrmse_fit, vaf
-from .model import StateSpaceModel, load_model
-from .validation import Comparison, compare
-from .identify import IdentificationResult, identify
-from .selection import PathStep
-from .systems.plant import example_data, example_plant
-from .experiment import experiment
-from .signals import random_binary_signal
-from .recursive import RecursiveMoli
-from .chunked import ChunkedEstimator
-from .filter_bank import FilterBank
-from .datasets import DatasetChecksumError, DatasetUnavailableError, list_daisy, load_daisy
-from . import control, datasets, signals, systems, tuning
+
+# public name -> the subpackage that defines it
+_HOMES = {
+    "IOData": "data", "read_data": "data", "load_daisy": "data", "list_daisy": "data",
+    "DatasetChecksumError": "data", "DatasetUnavailableError": "data",
+    "random_binary_signal": "data",
+    "StateSpaceModel": "models", "load_model": "models",
+    "Comparison": "validation", "compare": "validation", "cost_j": "validation",
+    "nrmse_fit": "validation", "vaf": "validation",
+    "estimate": "method", "divisor": "method", "divisors": "method",
+    "filter_polynomial": "method", "IdentificationResult": "method", "identify": "method",
+    "IdentifyOptions": "method", "PathStep": "method",
+    "RecursiveMoli": "streaming", "ChunkedEstimator": "streaming", "FilterBank": "streaming",
+    "example_data": "systems", "example_plant": "systems", "experiment": "systems",
+}
+_SUBPACKAGES = ("data", "models", "validation", "method", "streaming", "systems", "control", "app")
+
+__all__ = [
+    "__version__", "MoliError", "DataError", "FilterError", "IllConditionedWarning",
+    "ModelFileError", "OptionError", "StructureError", "UnstableModelWarning",
+    *_HOMES, *_SUBPACKAGES,
+]
+
+if TYPE_CHECKING:  # what the lazy names are, for type checkers and IDEs
+    from . import app, control, data, method, models, streaming, systems, validation
+    from .data import (
+        DatasetChecksumError, DatasetUnavailableError, IOData, list_daisy, load_daisy,
+        random_binary_signal, read_data,
+    )
+    from .method import (
+        IdentificationResult, IdentifyOptions, PathStep, divisor, divisors, estimate,
+        filter_polynomial, identify,
+    )
+    from .models import StateSpaceModel, load_model
+    from .streaming import ChunkedEstimator, FilterBank, RecursiveMoli
+    from .systems import example_data, example_plant, experiment
+    from .validation import Comparison, compare, cost_j, nrmse_fit, vaf
+
+
+def __getattr__(name: str) -> Any:
+    if name in _SUBPACKAGES:
+        return importlib.import_module(f".{name}", __name__)
+    if name not in _HOMES:
+        raise AttributeError(f"module 'moli' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{_HOMES[name]}", __name__), name)
+    globals()[name] = value  # later look-ups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

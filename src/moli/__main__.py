@@ -1,6 +1,6 @@
 """Run the moli command: ``python -m moli``."""
 
-from .cli import main
+from .app.cli import main
 
 if __name__ == "__main__":
     main()

@@ -6,6 +6,11 @@ specific class or the builtin one.
 
 from __future__ import annotations
 
+__all__ = [
+    "MoliError", "DataError", "StructureError", "FilterError", "OptionError", "ModelFileError",
+    "UnstableModelWarning", "IllConditionedWarning",
+]
+
 
 class MoliError(ValueError):
     """Base class of the errors moli raises on bad input."""

@@ -1,11 +1,12 @@
 """Simulated plants to run identification and control experiments on."""
 
+from .experiment import SampledPlant, experiment
 from .plant import example_data, example_plant
 from .twin_rotor import (
     RigLimitWarning, TwinRotor, TwinRotorError, TwinRotorParameters, identification_experiment,
 )
 
 __all__ = [
-    "example_data", "example_plant",
+    "SampledPlant", "experiment", "example_data", "example_plant",
     "RigLimitWarning", "TwinRotor", "TwinRotorError", "TwinRotorParameters", "identification_experiment",
 ]

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..data import IOData
-from ..model import StateSpaceModel
+from ..data.iodata import IOData
+from ..models.statespace import StateSpaceModel
 
 
 def example_plant() -> StateSpaceModel:

@@ -26,13 +26,12 @@ import warnings
 from dataclasses import astuple, dataclass, fields
 
 import numpy as np
-from scipy.signal import cont2discrete
 
-from ..data import IOData
+from ..data.iodata import IOData
 from ..errors import MoliError
-from ..experiment import experiment
-from ..model import StateSpaceModel
-from ..signals import random_binary_signal
+from .experiment import experiment
+from ..models.statespace import StateSpaceModel
+from ..data.signals import random_binary_signal
 
 OUTPUT_NAMES = ("pitch", "yaw")
 INPUT_NAMES = ("main", "tail")
@@ -342,6 +341,8 @@ class TwinRotor:
             ``u_offset``.
         """
         A, B, C = self.linearize()
+        from scipy.signal import cont2discrete  # slow to import: only when discretizing
+
         Ad, Bd, Cd, Dd, _ = cont2discrete((A, B, C, np.zeros((2, 2))), self.Ts, method="zoh")
         return StateSpaceModel(
             Ad, Bd, Cd, Dd, Ts=self.Ts, output_names=OUTPUT_NAMES, input_names=INPUT_NAMES,
@@ -450,7 +451,7 @@ def identification_experiment(
         Half the distance between the two levels of each input, V.
     switch_within : int or None, default 150
         Each input switches at least once in its first ``switch_within`` samples
-        (the estimation window), see :func:`moli.signals.random_binary_signal`.
+        (the estimation window), see :func:`moli.data.signals.random_binary_signal`.
 
     Returns
     -------

@@ -1,0 +1,311 @@
+"""The ``moli`` command: identify from a file, validate and inspect saved models.
+
+Bad input (missing file, unknown column, non-numeric cell, too few samples, a model
+that does not match the data) ends with one line ``moli: error: ...`` on stderr and
+exit code 2, never a traceback.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import sys
+import warnings
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+from tqdm import tqdm
+
+from .._version import __version__
+from ..data.daisy import load_daisy
+from ..data.files import fingerprint, read_data
+from ..data.iodata import IOData
+from ..errors import DataError, MoliError, OptionError
+from ..method.identification import IdentificationResult, identify
+from ..method.options import PRESETS, IdentifyOptions
+from ..method.search import PathStep, StructureSearch, exhaustive
+from ..models.statespace import StateSpaceModel, load_model
+from ..systems.plant import example_data
+from ..validation.comparison import X0_CHOICES, compare
+from .figures import measured_vs_simulated
+from .report import write_report
+
+USAGE_ERROR = 2
+INTERRUPTED = 130
+# --all-lists fits every list only for orders with at most this many lists: the count
+# C(n-1, p-1) grows fast, and each list costs one filter search.
+MAX_LISTS_PER_ORDER = 30
+DEMO_NMAX = 6
+
+
+class _Group(click.Group):
+    """Turns bad input into one line on stderr and exit code 2."""
+
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except (MoliError, OSError) as exc:
+            click.echo(f"moli: error: {exc}", err=True)
+            ctx.exit(USAGE_ERROR)
+        except KeyboardInterrupt:
+            click.echo("moli: interrupted", err=True)
+            ctx.exit(INTERRUPTED)
+
+
+class _Progress:
+    """Progress bar over the orders of the greedy path.
+
+    The bar appears with the first fitted order, so input rejected before the search
+    starts leaves stderr with the error line alone.
+    """
+
+    def __init__(self, total: int) -> None:
+        self.total = total
+        self.bar: tqdm | None = None
+
+    def __call__(self, step: PathStep) -> None:
+        if self.bar is None:
+            self.bar = tqdm(total=self.total, desc="structure search", unit="order", file=sys.stderr)
+        self.bar.set_postfix_str(f"n={step.order} {list(step.indices)} VAF {step.mean_vaf:.1f}%", refresh=False)
+        self.bar.update()
+
+
+def _names(text: str | None) -> list[str] | None:
+    return None if text is None else [name.strip() for name in text.split(",") if name.strip()]
+
+
+def _echo_warnings(caught: list[warnings.WarningMessage]) -> None:
+    for message in dict.fromkeys(str(w.message) for w in caught):
+        click.echo(f"moli: warning: {message}", err=True)
+
+
+def options_from_flags(options_file: Path | None, preset: str | None, **flags: Any) -> IdentifyOptions:
+    """The one place where command-line flags become :class:`IdentifyOptions`.
+
+    ``--options FILE`` (a JSON options dict, e.g. ``model.json``'s ``info.options``)
+    or ``--preset`` gives the base; every flag given on the command line (not None)
+    then replaces its field.
+    """
+    given = {name: value for name, value in flags.items() if value is not None}
+    if options_file is None:
+        return IdentifyOptions.preset(preset or "improved", **given)
+    if preset is not None:
+        raise OptionError("give either --options FILE or --preset, not both")
+    try:
+        content = json.loads(Path(options_file).read_text())
+    except FileNotFoundError:
+        raise OptionError(f"--options: no file at {options_file}") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise OptionError(f"--options: {options_file} is not a JSON file: {exc}") from None
+    if isinstance(content, dict) and content.get("format") == "moli-model":
+        content = content.get("info", {}).get("options", {})  # a saved model: the options that made it
+    return IdentifyOptions.from_dict(content).replace(**given)
+
+
+def _identify(data: IOData, fraction: float, options: IdentifyOptions) -> IdentificationResult:
+    """Split off the validation tail and run the greedy search with a progress bar."""
+    if not 0.0 < fraction < 1.0:
+        raise DataError(f"--validation must be a fraction in (0, 1), got {fraction}")
+    estimation, validation = data.split(1.0 - fraction)
+    nmax = max(10, data.p + 4) if options.nmax is None else options.nmax  # identify's default, for the bar
+    progress = _Progress(max(nmax - data.p + 1, 1))
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            result = identify(estimation, validation, options, progress=progress)
+        finally:
+            if progress.bar is not None:
+                progress.bar.close()
+    _echo_warnings(caught)
+    if result.interrupted:
+        click.echo(f"moli: search interrupted after {len(result.path)} orders; keeping the best "
+                   "model found so far", err=True)
+    result.model.info.update({
+        "data": {"sha256": fingerprint(estimation), "N": estimation.N,
+                 "validation_N": validation.N, "validation_fraction": fraction},
+        "validation_vaf": result.selected.vaf.tolist(),
+    })
+    return result
+
+
+def _all_lists(result: IdentificationResult) -> list[PathStep]:
+    """Every list of each path order with few enough lists, minus the path itself."""
+    opts = result.options
+    search = StructureSearch(result.estimation, result.validation, result.omega,
+                             opts.tuning, opts.iterations, opts.s, opts.seed, opts.x0)
+    p = result.estimation.p
+    orders = [st.order for st in result.path if math.comb(st.order - 1, p - 1) <= MAX_LISTS_PER_ORDER]
+    on_path = {st.indices for st in result.path}
+    tried: list[PathStep] = []
+    try:
+        for order in tqdm(orders, desc="every list", unit="order", file=sys.stderr):
+            tried += [st for st in exhaustive(search, order) if st.indices not in on_path]
+    except KeyboardInterrupt:
+        click.echo("moli: stopped fitting every list; the report shows those done", err=True)
+    return tried
+
+
+def _finish(result: IdentificationResult, model_path: Path, report_dir: Path | None, all_lists: bool) -> None:
+    click.echo(result.summary())
+    model_path.parent.mkdir(parents=True, exist_ok=True)
+    result.model.save(model_path)
+    click.echo(f"model written to {model_path}")
+    if report_dir is not None:
+        tried = _all_lists(result) if all_lists else []
+        click.echo(f"report written to {write_report(result, report_dir, tried)}")
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="moli")
+def cli() -> None:
+    """Identify multivariable linear models from measured data with MOLI-ZOFT."""
+
+
+@cli.command()
+@click.option("--out", "out_dir", default="moli-demo", show_default=True, type=click.Path(path_type=Path),
+              help="Folder for report.html, the figures and model.json.")
+@click.option("--nmax", default=DEMO_NMAX, show_default=True, help="Largest order on the greedy path.")
+@click.option("--all-lists", is_flag=True, help="Also fit every list of each order (slower).")
+def demo(out_dir: Path, nmax: int, all_lists: bool) -> None:
+    """Identify the built-in simulated 3x3 plant and write a report."""
+    data = example_data()
+    click.echo(f"built-in example plant: {data}")
+    result = _identify(data, 0.5, IdentifyOptions(nmax=nmax))
+    result.model.info["data"]["source"] = "moli.example_data()"
+    _finish(result, out_dir / "model.json", out_dir, all_lists)
+
+
+@cli.command()
+@click.argument("data_file", metavar="DATA", required=False, type=click.Path(path_type=Path))
+@click.option("--inputs", help="Comma-separated input column names, e.g. u1,u2.")
+@click.option("--outputs", help="Comma-separated output column names, e.g. y1,y2.")
+@click.option("--daisy", metavar="NAME", help="Use a DaISy benchmark set instead of DATA.")
+@click.option("--data-dir", type=click.Path(path_type=Path), help="Folder holding DaISy files.")
+@click.option("--ts", type=float, help="Sampling period [default: a time column's step, else 1].")
+@click.option("--options", "options_file", type=click.Path(path_type=Path),
+              help="JSON file of identification options (IdentifyOptions.to_dict(), or a saved "
+                   "model, whose options are reused); flags given beside it override its fields.")
+@click.option("--nmax", type=int, help="Largest order on the greedy path [default: max(10, p + 4)].")
+@click.option("--validation", "fraction", default=0.3, show_default=True,
+              help="Share of the record, at its end, held out for order selection and the report.")
+@click.option("--seed", type=int, help="Seed of the randomized filter search [default: 0].")
+@click.option("--preset", type=click.Choice(PRESETS),
+              help="Search options: improved, bounded (no modes slower than a tenth of the "
+                   "record) or paper (the published MOLI-ZOFT) [default: improved].")
+@click.option("--x0", type=click.Choice(X0_CHOICES),
+              help="Initial state of the validation simulations [default: zero].")
+@click.option("--out", "model_path", default="model.json", show_default=True,
+              type=click.Path(path_type=Path), help="Model file to write (JSON).")
+@click.option("--report", "report_dir", type=click.Path(path_type=Path),
+              help="Folder for report.html and the figures.")
+@click.option("--all-lists", is_flag=True,
+              help=f"Also fit every list of orders with at most {MAX_LISTS_PER_ORDER} lists (report).")
+def fit(data_file: Path | None, inputs: str | None, outputs: str | None, daisy: str | None,
+        data_dir: Path | None, ts: float | None, options_file: Path | None, nmax: int | None,
+        fraction: float, seed: int | None, preset: str | None, x0: str | None, model_path: Path, report_dir: Path | None, all_lists: bool) -> None:
+    """Identify a model from a CSV, .npz, .mat or .parquet file.
+
+    A CSV file needs a header row with the column names; a column named time or t
+    gives the sampling period unless --ts is given.
+    """
+    if (data_file is None) == (daisy is None):
+        raise DataError("give either a DATA file or --daisy NAME")
+    options = options_from_flags(options_file, preset, nmax=nmax, seed=seed, x0=x0)
+    if daisy is not None:
+        data = load_daisy(daisy, data_dir)
+        source = f"DaISy {daisy}"
+    else:
+        data = read_data(data_file, _names(inputs), _names(outputs), ts)
+        source = str(data_file)
+    click.echo(f"{source}: {data}")
+    result = _identify(data, fraction, options)
+    result.model.info["data"]["source"] = source
+    _finish(result, model_path, report_dir, all_lists)
+
+
+@cli.command()
+@click.argument("model_file", metavar="MODEL", type=click.Path(path_type=Path))
+@click.argument("data_file", metavar="DATA", type=click.Path(path_type=Path))
+@click.option("--inputs", help="Input columns [default: the model's input names].")
+@click.option("--outputs", help="Output columns [default: the model's output names].")
+@click.option("--x0", type=click.Choice(X0_CHOICES), default="zero", show_default=True,
+              help="Simulate from the zero state or from a least-squares initial state.")
+@click.option("--plot", type=click.Path(path_type=Path), default="validation.png", show_default=True,
+              help="Where to write the measured-against-simulated figure.")
+def validate(model_file: Path, data_file: Path, inputs: str | None, outputs: str | None,
+             x0: str, plot: Path) -> None:
+    """Score MODEL on DATA: VAF and fit per output, and a figure.
+
+    DATA is read with the model's channel names and sampling period unless
+    --inputs/--outputs name other columns.
+    """
+    model = load_model(model_file)
+    data = read_data(data_file, _names(inputs) or list(model.input_names),
+                     _names(outputs) or list(model.output_names), model.Ts)
+    comparison = compare(model, data, x0)
+    click.echo(f"{data_file}: {data.N} samples; simulation from {x0} initial state")
+    click.echo(f"{'output':<16}{'VAF %':>9}{'fit %':>9}")
+    for name, v, f in zip(data.output_names, comparison.vaf, comparison.fit):
+        click.echo(f"{name:<16}{v:>9.2f}{f:>9.2f}")
+    click.echo(f"{'mean':<16}{comparison.mean_vaf:>9.2f}{np.mean(comparison.fit):>9.2f}")
+    plot.parent.mkdir(parents=True, exist_ok=True)
+    measured_vs_simulated(data, comparison).savefig(plot, dpi=110)
+    click.echo(f"figure written to {plot}")
+
+
+@cli.command()
+@click.argument("model_file", metavar="MODEL", type=click.Path(path_type=Path))
+def info(model_file: Path) -> None:
+    """Print structure, poles, stability, Ts and names of MODEL."""
+    click.echo(describe(load_model(model_file)))
+
+
+def describe(model: StateSpaceModel) -> str:
+    """A readable description of a model: structure, poles, stability, names.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> print(describe(StateSpaceModel([[0.5]], [[1.0]], [[1.0]])).splitlines()[0])
+    state-space model: n = 1, 1 outputs, 1 inputs, Ts = 1
+    """
+    z = model.poles()
+    lines = [
+        f"state-space model: n = {model.n}, {model.p} outputs, {model.m} inputs, Ts = {model.Ts:g}",
+        f"outputs: {', '.join(model.output_names)}",
+        f"inputs: {', '.join(model.input_names)}",
+    ]
+    if model.indices is not None:
+        lines.append(f"observability indices: {list(model.indices)}")
+    if model.alpha is not None:
+        lines.append(f"filter polynomial alpha: {np.array2string(model.alpha, precision=4)}")
+    if model.divisors is not None:
+        lines += [f"filter of output {j + 1}: {np.array2string(d, precision=4)}"
+                  for j, d in enumerate(model.divisors)]
+    lines.append(f"stable: {'yes' if model.is_stable() else 'NO'} "
+                 f"(largest pole modulus {np.max(np.abs(z), initial=0.0):.4f})")
+    lines.append("poles (modulus):")
+    lines += [f"  {p.real:+.4f} {p.imag:+.4f}j  ({abs(p):.4f})" for p in z[np.argsort(-np.abs(z))]]
+    data = model.info.get("data", {})
+    if "sha256" in data:
+        lines.append(f"estimated on {data.get('source', '?')}: {data['N']} samples, "
+                     f"sha256 {data['sha256'][:16]}...")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    """Entry point of the ``moli`` console script."""
+    cli(prog_name="moli")
+
+
+if __name__ == "__main__":
+    main()

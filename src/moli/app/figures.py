@@ -1,0 +1,191 @@
+"""Report figures drawn with matplotlib on the Agg canvas (no display needed).
+
+Each function returns a :class:`matplotlib.figure.Figure` that is not registered with
+pyplot, so drawing many reports never accumulates open windows or memory.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from ..data.iodata import IOData
+from ..models.statespace import StateSpaceModel
+from ..method.search import PathStep
+from ..validation.comparison import Comparison
+
+PANEL_HEIGHT = 1.9  # inches per row of axes
+
+
+def _figure(width: float, height: float) -> Figure:
+    fig = Figure(figsize=(width, height), layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig
+
+
+def vaf_by_order(path: Sequence[PathStep], tried: Sequence[PathStep] = (), selected: int | None = None) -> Figure:
+    """Mean validation VAF against the order, like Fig. 2 of the MOLI-ZOFT paper.
+
+    Parameters
+    ----------
+    path : sequence of PathStep
+        The greedy path (one step per order), drawn as a line.
+    tried : sequence of PathStep, optional
+        Every other list fitted (greedy candidates or an exhaustive search), drawn as dots.
+    selected : int, optional
+        Position in ``path`` of the selected model, circled.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fig = _figure(6.4, 3.6)
+    ax = fig.add_subplot()
+    if tried:
+        ax.plot([st.order for st in tried], [st.mean_vaf for st in tried], "o", color="0.65",
+                markersize=4, label="other lists fitted")
+    orders = [st.order for st in path]
+    ax.plot(orders, [st.mean_vaf for st in path], "o-", color="C0", label="greedy path")
+    for st in path:
+        # labels sit above the ring that marks the selected model, not under it
+        ax.annotate(",".join(map(str, st.indices)), (st.order, st.mean_vaf), fontsize=7,
+                    textcoords="offset points", xytext=(0, 10), ha="center")
+    if selected is not None:
+        st = path[selected]
+        ax.plot(st.order, st.mean_vaf, "o", markersize=14, markerfacecolor="none",
+                markeredgecolor="C3", markeredgewidth=2, label=f"selected (n = {st.order})")
+    ax.set_xticks(range(min(orders), max(orders) + 1))
+    scores = [st.mean_vaf for st in [*path, *tried]]
+    ax.set_ylim(max(min(scores) - 1.0, 0.0), min(max(scores) + 1.0, 100.5))
+    ax.set_xlabel("order n")
+    ax.set_ylabel("mean validation VAF (%)")
+    ax.grid(alpha=0.3)
+    ax.legend(loc="lower right", fontsize=8)
+    return fig
+
+
+def measured_vs_simulated(data: IOData, comparison: Comparison) -> Figure:
+    """Measured and simulated outputs, one panel per output (like the paper's Fig. 7).
+
+    Parameters
+    ----------
+    data : IOData
+        The record the model was simulated on.
+    comparison : Comparison
+        Result of :func:`moli.compare` on ``data``.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fig = _figure(7.5, PANEL_HEIGHT * data.p + 0.4)
+    axes = fig.subplots(data.p, 1, sharex=True, squeeze=False)[:, 0]
+    t = data.time()
+    for i, ax in enumerate(axes):
+        ax.plot(t, data.y[:, i], color="0.2", linewidth=1.0, label="measured")
+        ax.plot(t, comparison.yhat[:, i], color="C1", linewidth=1.0, label="simulated")
+        ax.set_ylabel(data.output_names[i])
+        ax.set_title(f"VAF {comparison.vaf[i]:.1f} %, fit {comparison.fit[i]:.1f} %",
+                     fontsize=9, loc="right")
+        ax.grid(alpha=0.3)
+    # outside the axes: inside, the legend hides the start-up transient of the first output
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside upper left", fontsize=8, ncols=2)
+    axes[-1].set_xlabel("time from the start of the record")
+    return fig
+
+
+def poles(model: StateSpaceModel) -> Figure:
+    """Poles of the model in the complex plane with the unit circle.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fig = _figure(4.2, 4.2)
+    ax = fig.add_subplot()
+    angle = np.linspace(0.0, 2.0 * np.pi, 400)
+    ax.plot(np.cos(angle), np.sin(angle), color="0.5", linewidth=1.0)
+    z = model.poles()
+    inside = np.abs(z) < 1.0
+    ax.plot(z.real[inside], z.imag[inside], "x", color="C0", markersize=8, mew=1.5, label="stable")
+    if not inside.all():
+        ax.plot(z.real[~inside], z.imag[~inside], "x", color="C3", markersize=8, mew=1.5,
+                label="on or outside the circle")
+    reach = max(1.1, float(np.max(np.abs(z), initial=0.0)) * 1.1)
+    ax.set_xlim(-reach, reach)
+    ax.set_ylim(-reach, reach)
+    ax.set_aspect("equal")
+    ax.axhline(0.0, color="0.8", linewidth=0.8)
+    ax.axvline(0.0, color="0.8", linewidth=0.8)
+    ax.set_xlabel("real")
+    ax.set_ylabel("imaginary")
+    ax.set_title(f"poles (n = {model.n}, Ts = {model.Ts:g})", fontsize=10)
+    ax.legend(loc="upper left", fontsize=8)
+    return fig
+
+
+def step_responses(model: StateSpaceModel, samples: int) -> Figure:
+    """Unit-step responses from every input to every output (a p-by-m grid).
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    samples : int
+        Length of each response.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    fig = _figure(2.4 * model.m + 0.6, PANEL_HEIGHT * model.p + 0.4)
+    axes = fig.subplots(model.p, model.m, sharex=True, squeeze=False)
+    t = np.arange(samples) * model.Ts
+    for j in range(model.m):
+        u = np.zeros((samples, model.m))
+        u[:, j] = 1.0
+        y = model.simulate(u)
+        for i in range(model.p):
+            ax = axes[i, j]
+            ax.plot(t, y[:, i], color="C0", linewidth=1.2, drawstyle="steps-post")
+            ax.axhline(0.0, color="0.8", linewidth=0.8)
+            ax.grid(alpha=0.3)
+            if i == 0:
+                ax.set_title(f"from {model.input_names[j]}", fontsize=9)
+            if j == 0:
+                ax.set_ylabel(f"to {model.output_names[i]}")
+            if i == model.p - 1:
+                ax.set_xlabel("time")
+    return fig
+
+
+def settling_samples(model: StateSpaceModel, cap: int = 2000) -> int:
+    """A step-response length that shows the slowest stable pole settle (5 time constants).
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    cap : int, default 2000
+        Upper bound, reached by poles close to or outside the unit circle.
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> settling_samples(StateSpaceModel([[0.5]], [[1.0]], [[1.0]]))
+    20
+    """
+    radius = float(np.max(np.abs(model.poles()), initial=0.0))
+    if radius >= 1.0:
+        return cap
+    if radius == 0.0:
+        return 20
+    return int(min(cap, max(20, np.ceil(5.0 / -np.log(radius)))))

@@ -1,0 +1,297 @@
+"""Parameter estimation: one linear least-squares problem per output.
+
+For output ``j`` with index ``l`` and divisor ``alpha_j``, the regressors are the
+signals ``z = [y, u]`` filtered by ``q^i / alpha_j(q)``, ``i = 0..l-1``, plus the
+current outputs ``y_i``, ``i < j``. Since ``q^i/alpha_j = q^(i-l) (q^l/alpha_j)``,
+all of them are delays of the single filtered signal ``lfilter(1, alpha_j, z)``.
+"""
+
+from __future__ import annotations
+
+import functools
+import warnings
+from itertools import accumulate
+from typing import Sequence
+
+import numpy as np
+import scipy.linalg
+
+from ..data.iodata import IOData
+from ..errors import DataError, IllConditionedWarning
+from .filters import check_alpha, divisors
+from ..models.statespace import StateSpaceModel
+from .structure import Indices, check_indices, parameter_counts
+
+# Condition numbers (of the column-scaled regressor) above this are reported:
+# beyond it the solution has lost at least 10 of its 16 significant digits.
+COND_LIMIT = 1e10
+
+
+def filtered_regressors(z: np.ndarray, alpha_j: np.ndarray) -> np.ndarray:
+    """Regressors ``(q^i/alpha_j(q)) z_r`` for all channels ``r`` and ``i = 0..l-1``.
+
+    Parameters
+    ----------
+    z : ndarray, shape (N, c)
+        Signals, zero initial filter state.
+    alpha_j : ndarray, shape (l + 1,)
+        Monic filter denominator.
+
+    Returns
+    -------
+    ndarray, shape (N, c * l)
+        Column ``r * l + i`` holds channel ``r`` filtered by ``q^i / alpha_j``.
+    """
+    from scipy.signal import lfilter  # slow to import: only when filtering
+
+    N, c = z.shape
+    l = alpha_j.size - 1
+    base = lfilter([1.0], alpha_j, z, axis=0)
+    phi = np.zeros((N, c, l))
+    for i in range(l):
+        delay = l - i
+        phi[delay:, :, i] = base[: N - delay]
+    return phi.reshape(N, c * l)
+
+
+# Rows per block of the tall-skinny QR: blocks stay in cache, so the cost per
+# sample does not grow with the record length.
+QR_BLOCK_ROWS = 8192
+
+
+def _triangular_factor(aug: np.ndarray) -> np.ndarray:
+    """R factor of a batch of tall matrices ``[phi | target]``, block by block.
+
+    The R of ``[R_previous; next block]`` is the R of all rows so far, so long
+    records are reduced in cache-sized blocks; Q is never formed, and the last
+    column of R holds ``Q^T target``.
+    """
+    r = np.linalg.qr(aug[:, :QR_BLOCK_ROWS], mode="r")
+    for start in range(QR_BLOCK_ROWS, aug.shape[1], QR_BLOCK_ROWS):
+        r = np.linalg.qr(np.concatenate([r, aug[:, start : start + QR_BLOCK_ROWS]], axis=1), mode="r")
+    return r
+
+
+def solve_batch(phi: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Least squares ``phi[r] theta[r] ~ target[r]`` for a batch, by QR.
+
+    Parameters
+    ----------
+    phi : ndarray, shape (R, N, k)
+    target : ndarray, shape (R, N)
+
+    Returns
+    -------
+    theta : ndarray, shape (R, k)
+    cond : ndarray, shape (R,)
+        Condition estimate ``max|r_ii| / min|r_ii|`` of the column-scaled problem.
+        Rank-deficient problems get the minimum-norm solution.
+    """
+    norms = np.linalg.norm(phi, axis=1, keepdims=True)
+    norms[norms == 0] = 1.0
+    scaled = phi / norms
+    k = phi.shape[2]
+    r_aug = _triangular_factor(np.concatenate([scaled, target[..., None]], axis=2))
+    r, rhs = r_aug[:, :k, :k], r_aug[:, :k, k]
+    diag = np.abs(np.diagonal(r, axis1=1, axis2=2))
+    with np.errstate(divide="ignore"):
+        cond = diag.max(axis=1) / diag.min(axis=1)
+    theta = np.empty(rhs.shape)
+    good = cond < 1e13
+    if good.any():
+        theta[good] = np.linalg.solve(r[good], rhs[good][..., None])[..., 0]
+    for i in np.flatnonzero(~good):
+        theta[i] = scipy.linalg.lstsq(scaled[i], target[i])[0]
+    return theta / norms[:, 0, :], cond
+
+
+def realize(
+    thetas: Sequence[np.ndarray], alphas: Sequence[Sequence[np.ndarray]], indices: Indices, m: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """State-space matrices of a batch of fitted observer-form models.
+
+    Parameters
+    ----------
+    thetas : sequence of ndarray
+        Per output ``j``, the parameters of the batch, shape (R, (p+m) l_j + j).
+    alphas : sequence of sequences of ndarray
+        ``alphas[r][j]`` is candidate ``r``'s divisor for output ``j``.
+    indices : tuple of int
+    m : int
+        Number of inputs.
+
+    Returns
+    -------
+    A, B, C : ndarray, shapes (R, n, n), (R, n, m), (R, p, n)
+    """
+    return _observer_form(thetas, alphas, indices, m)[:3]
+
+
+@functools.lru_cache(maxsize=None)
+def _companion_layout(indices: Indices) -> tuple[np.ndarray, tuple[int, ...]]:
+    """The ones of the observer form's companion blocks (an ``n x n`` matrix) and each block's start."""
+    n = sum(indices)
+    starts = tuple(accumulate(indices, initial=0))[:-1]
+    shift = np.zeros((n, n))
+    for s, l in zip(starts, indices):
+        shift[range(s + 1, s + l), range(s, s + l - 1)] = 1.0
+    shift.flags.writeable = False
+    return shift, starts
+
+
+def _filter_companion(divisors_: Sequence[np.ndarray], indices: Indices) -> np.ndarray:
+    """The observer's block companion matrices ``A_D`` of a batch of per-output filters.
+
+    ``divisors_[j]`` holds output ``j``'s monic filter polynomial of each model, shape
+    (R, l_j + 1); the result has shape (R, n, n).
+    """
+    shift, starts = _companion_layout(tuple(indices))
+    A_D = np.empty((divisors_[0].shape[0],) + shift.shape)
+    A_D[:] = shift
+    for alpha_j, l, s in zip(divisors_, indices, starts):
+        A_D[:, s : s + l, s + l - 1] = -alpha_j[:, :0:-1]
+    return A_D
+
+
+def _observer_form(
+    thetas: Sequence[np.ndarray], alphas: Sequence[Sequence[np.ndarray]], indices: Indices, m: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`realize`, and the output injection ``D_y`` with ``A = A_D + D_y C``.
+
+    Returns
+    -------
+    A, B, C, D_y : ndarray, shapes (R, n, n), (R, n, m), (R, p, n), (R, n, p)
+    """
+    p = len(indices)
+    R = thetas[0].shape[0]
+    n = sum(indices)
+    A_D = _filter_companion([np.array([alpha[j] for alpha in alphas]) for j in range(p)], indices)
+    D = np.empty((R, n, p))
+    B = np.empty((R, n, m))
+    C = np.zeros((R, p, n))
+    for j, (l, s) in enumerate(zip(indices, _companion_layout(tuple(indices))[1])):
+        block = slice(s, s + l)
+        coeffs = thetas[j][:, : (p + m) * l].reshape(R, p + m, l).transpose(0, 2, 1)
+        D[:, block] = coeffs[:, :, :p]
+        B[:, block] = coeffs[:, :, p:]
+        # (I - G) C = C_D with G strictly lower triangular: forward substitution
+        C[:, j, s + l - 1] = 1.0
+        if j:
+            C[:, j] += np.einsum("ri,rin->rn", thetas[j][:, (p + m) * l :], C[:, :j])
+    return A_D + D @ C, B, C, D
+
+
+def fit_batch(
+    z: np.ndarray, indices: Indices, alphas: Sequence[Sequence[np.ndarray]]
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Estimate one model per candidate filter on the same data.
+
+    Parameters
+    ----------
+    z : ndarray, shape (N, p + m)
+        Outputs then inputs.
+    indices : tuple of int
+    alphas : sequence of sequences of ndarray
+        ``alphas[r][j]``: divisor of output ``j`` for candidate ``r``.
+
+    Returns
+    -------
+    A, B, C : ndarray
+        Batch matrices, see :func:`realize`.
+    cond : ndarray, shape (R,)
+        Worst condition estimate over the outputs of each candidate.
+    """
+    p = len(indices)
+    m = z.shape[1] - p
+    skip = max(indices)
+    R = len(alphas)
+    thetas = []
+    cond = np.ones(R)
+    # filtered signals depend on the divisor alone: outputs and candidates that share
+    # one (the same filter's divisor of the same degree) filter the data once
+    filtered: dict[bytes, np.ndarray] = {}
+    for j, l in enumerate(indices):
+        phis = []
+        for r in range(R):
+            key = np.asarray(alphas[r][j], float).tobytes()
+            if key not in filtered:
+                filtered[key] = filtered_regressors(z, alphas[r][j])[skip:]
+            phis.append(np.concatenate([filtered[key], z[skip:, :j]], axis=1))
+        phi = np.stack(phis)
+        theta, c = solve_batch(phi, np.broadcast_to(z[skip:, j], phi.shape[:2]))
+        thetas.append(theta)
+        cond = np.maximum(cond, c)
+    A, B, C = realize(thetas, alphas, indices, m)
+    return A, B, C, cond
+
+
+def check_sample_count(N: int, indices: Indices, m: int) -> None:
+    """Raise :class:`DataError` unless each output's regression has more rows than unknowns."""
+    need = int(parameter_counts(indices, m).max()) + max(indices) + 1
+    if N < need:
+        raise DataError(
+            f"too few samples: the list {list(indices)} with {m} inputs needs at least "
+            f"{need} samples ({need - max(indices)} rows after the filter transient), got {N}"
+        )
+
+
+def estimate(data: IOData, indices: Sequence[int], alpha: Sequence[float]) -> StateSpaceModel:
+    """Estimate a model for a fixed list of indices and filter polynomial.
+
+    Parameters
+    ----------
+    data : IOData
+        Estimation data (remove means beforehand if the plant has offsets).
+    indices : sequence of int
+        Observability indices, one per output.
+    alpha : array_like
+        Monic, stable filter polynomial of degree ``max(indices)``, e.g. from
+        :func:`moli.filter_polynomial`.
+
+    Returns
+    -------
+    StateSpaceModel
+        Discrete-time model, no feedthrough, in the observer form's coordinates.
+
+    Warns
+    -----
+    IllConditionedWarning
+        If a least-squares problem is badly conditioned (poor excitation).
+    UnstableModelWarning
+        If the model has poles on or outside the unit circle.
+
+    Examples
+    --------
+    >>> import numpy as np, moli
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.standard_normal(300)
+    >>> y = np.zeros(300)
+    >>> for k in range(1, 300):
+    ...     y[k] = 0.8 * y[k - 1] + 0.5 * u[k - 1]
+    >>> model = moli.estimate(moli.IOData(y, u), [1], moli.filter_polynomial(1.0, 1.0, [1]))
+    >>> np.round(model.poles().real, 6)
+    array([0.8])
+    """
+    if not isinstance(data, IOData):
+        raise DataError(f"data must be an IOData, got {type(data).__name__}")
+    idx = check_indices(indices, data.p)
+    coeffs = check_alpha(alpha)
+    alphas = divisors(coeffs, idx)
+    check_sample_count(data.N, idx, data.m)
+    z = np.concatenate([data.y, data.u], axis=1)
+    A, B, C, cond = fit_batch(z, idx, [alphas])
+    if cond[0] > COND_LIMIT:
+        warnings.warn(
+            f"least-squares problem for list {list(idx)} is badly conditioned "
+            f"(condition ~{cond[0]:.2g}): the input may not excite the plant enough, or the "
+            "order is too high for the data",
+            IllConditionedWarning,
+            stacklevel=2,
+        )
+    model = StateSpaceModel(
+        A[0], B[0], C[0], Ts=data.Ts, output_names=data.output_names,
+        input_names=data.input_names, indices=idx, alpha=coeffs,
+        y_offset=data.y_offset, u_offset=data.u_offset,
+    )
+    model.warn_if_unstable(stacklevel=2)
+    return model

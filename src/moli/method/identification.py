@@ -1,0 +1,253 @@
+"""The one-call entry point: structure search, filter tuning, estimation, order rule."""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field, replace
+from typing import Any, Callable
+
+import numpy as np
+
+from ..data.iodata import IOData
+from ..errors import DataError, OptionError
+from ..models.statespace import StateSpaceModel
+from ..validation.comparison import compare
+from .estimation import check_sample_count
+from .options import IdentifyOptions
+from .refinement import MAX_RADIUS
+from .refinement import refine as refine_model
+from .search import PathStep, StructureSearch, greedy_path, select_order
+from .tuning import default_omega
+
+# Share of the record held out for the order rule when no validation data are given.
+HOLDOUT_FRACTION = 0.3
+# "auto" stability bound: a mode whose time constant exceeds a tenth of the estimation
+# record (radius exp(-10/N)) cannot be told from drift in that record.
+AUTO_RADIUS_SPAN = 10.0
+
+
+@dataclass
+class IdentificationResult:
+    """What :func:`identify` found.
+
+    Attributes
+    ----------
+    model : StateSpaceModel
+        The selected model (acts on deviations from ``model.u_offset``/``y_offset``).
+    path : list of PathStep
+        One record per order along the greedy path.
+    selected_index : int
+        Position of the selected model in ``path``.
+    estimation, validation : IOData
+        The centred records used.
+    validation_source : str
+        Where the validation data came from (given, or held out from the tail).
+    options : IdentifyOptions
+        The options the search ran with, as given (also in ``model.info["options"]``).
+    nmax : int
+        The order bound the path ran to (``options.nmax`` or its default).
+    omega : ndarray, shape (R, 2)
+        The filter candidates searched (``options.omega`` or the default grid).
+    max_radius : float or None
+        The stability bound applied (``options.max_radius``, "auto" resolved).
+    seconds : float
+        Total wall time.
+    interrupted : bool
+        True when the search was stopped by Ctrl-C; the path holds what was done.
+    """
+
+    model: StateSpaceModel
+    path: list[PathStep]
+    selected_index: int
+    estimation: IOData = field(repr=False)
+    validation: IOData = field(repr=False)
+    validation_source: str
+    options: IdentifyOptions
+    nmax: int
+    omega: np.ndarray = field(repr=False)
+    max_radius: float | None
+    seconds: float
+    interrupted: bool = False
+
+    @property
+    def selected(self) -> PathStep:
+        """The path step of the selected model."""
+        return self.path[self.selected_index]
+
+    def summary(self) -> str:
+        """A readable table of the greedy path and the selection."""
+        names = self.estimation.output_names
+        opts = self.options
+        # long channel names (e.g. DaISy's) would break the columns: number them and list them
+        head = f"{'n':>3}  {'indices':<16}{'J':>8}  " + "".join(f"{f'VAF y{i + 1}':>11}" for i in range(len(names)))
+        head += f"{'mean VAF':>10}{'wc':>9}{'zeta':>7}{'stable':>8}{'sec':>8}"
+        lines = [
+            f"moli identification: {self.estimation.p} outputs, {self.estimation.m} inputs, "
+            f"Ts = {self.estimation.Ts:g}",
+            f"estimation: {self.estimation.N} samples; validation: {self.validation.N} samples "
+            f"({self.validation_source})",
+            f"VAF: validation, simulation from {self.options.x0} initial state, percent"
+            + "".join(f"; y{i + 1} = {nm}" for i, nm in enumerate(names) if nm != f"y{i + 1}"),
+            f"options: tuning {opts.tuning}, s = {opts.s:g}, feedthrough {opts.feedthrough}, "
+            f"max pole radius {'none' if self.max_radius is None else f'{self.max_radius:.6g}'}, "
+            f"J trend degree {opts.trend_degree}, per-output filters {opts.output_filters}, "
+            f"refinement {opts.refine}",
+            head,
+        ]
+        for i, st in enumerate(self.path):
+            mark = "  <- selected" if i == self.selected_index else ""
+            lines.append(
+                f"{st.order:>3}  {str(list(st.indices)):<16}{st.J:>8.4f}  "
+                + "".join(f"{v:>11.2f}" for v in st.vaf)
+                + f"{st.mean_vaf:>10.2f}{st.eta[0]:>9.4g}{st.eta[1]:>7.3f}{str(st.stable):>8}"
+                + f"{st.seconds:>8.3f}{mark}"
+            )
+        lines.append(
+            f"selected: indices {list(self.selected.indices)} (n = {self.selected.order}), "
+            f"lowest order within {opts.order_tolerance:g} point of the best mean "
+            f"validation VAF; total {self.seconds:.2f} s"
+            + (" (interrupted: partial path)" if self.interrupted else "")
+        )
+        if self.selected.output_etas is not None:
+            lines.append("its filters per output (wc, zeta): " + ", ".join(
+                f"y{j + 1} ({wc:.4g}, {zeta:.3g})" for j, (wc, zeta) in enumerate(self.selected.output_etas)
+            ))
+        return "\n".join(lines)
+
+
+
+def identify(
+    data: IOData,
+    validation: IOData | None = None,
+    options: IdentifyOptions | None = None,
+    *,
+    progress: Callable[[PathStep], None] | None = None,
+    **overrides: Any,
+) -> IdentificationResult:
+    """Identify a multivariable state-space model with MOLI-ZOFT.
+
+    Parameters
+    ----------
+    data : IOData
+        Estimation record.
+    validation : IOData, optional
+        Validation record, used only by the order rule. When omitted, the last
+        30 % of ``data`` is held out for it (``result.validation_source`` says so).
+    options : IdentifyOptions, optional
+        Every choice of the identification; default ``IdentifyOptions()`` (the
+        ``improved`` preset).
+    progress : callable, optional
+        Called with each :class:`PathStep` as the path grows.
+    **overrides
+        Fields of :class:`IdentifyOptions` changed for this call:
+        ``identify(est, val, nmax=12)`` is ``identify(est, val, IdentifyOptions(nmax=12))``.
+        ``preset="paper"`` (or "bounded", "improved") starts from that preset instead
+        of the default; it cannot be combined with ``options``.
+
+    Returns
+    -------
+    IdentificationResult
+
+    Raises
+    ------
+    OptionError
+        An unknown or invalid option (before any work); the message names it.
+    DataError
+        Records that are not :class:`IOData`, or whose channels do not match.
+
+    Examples
+    --------
+    >>> import moli
+    >>> est, val = moli.example_data(N=600, seed=1).split(400)
+    >>> result = moli.identify(est, val, nmax=6)
+    >>> result.selected.order <= 6
+    True
+    >>> paper = moli.identify(est, val, moli.IdentifyOptions.paper(nmax=6))
+    >>> paper.options.feedthrough
+    False
+    """
+    opts = _options(options, overrides)
+    if not isinstance(data, IOData):
+        raise DataError(f"data must be an IOData, got {type(data).__name__}")
+    if validation is None:
+        estimation, validation = data.split(1.0 - HOLDOUT_FRACTION)
+        source = f"held out: last {HOLDOUT_FRACTION:.0%} of the record"
+    else:
+        if not isinstance(validation, IOData):
+            raise DataError(f"validation must be an IOData, got {type(validation).__name__}")
+        if (validation.p, validation.m) != (data.p, data.m):
+            raise DataError(
+                f"validation has {validation.p} outputs and {validation.m} inputs, "
+                f"data have {data.p} and {data.m}"
+            )
+        estimation, source = data, "given"
+    if opts.center:
+        estimation = estimation.remove_means()
+        validation = validation.remove_means(estimation.y_offset, estimation.u_offset)
+    p = estimation.p
+    nmax = max(10, p + 4) if opts.nmax is None else opts.nmax
+    if nmax < p:
+        raise OptionError(f"IdentifyOptions.nmax must be at least the number of outputs, {p}; got {nmax}")
+    grid = default_omega(estimation.Ts) if opts.omega is None else np.array(opts.omega)
+    radius = opts.max_radius
+    if radius == "auto":
+        radius = float(np.exp(-AUTO_RADIUS_SPAN / estimation.N))
+    search = StructureSearch(
+        estimation, validation, grid, opts.tuning, opts.iterations, opts.s, opts.seed, opts.x0,
+        opts.criterion_x0, opts.feedthrough, radius, opts.trend_degree, opts.output_filters,
+    )
+    check_sample_count(estimation.N, (1,) * p, estimation.m)
+    start = time.perf_counter()
+    path: list[PathStep] = []
+    interrupted = False
+
+    def record(step: PathStep) -> None:
+        path.append(step)
+        if progress:
+            progress(step)
+
+    with warnings.catch_warnings():
+        # unstable candidates are expected while searching; the selected model is checked below
+        warnings.simplefilter("ignore", RuntimeWarning)
+        try:
+            greedy_path(search, nmax, record)
+        except KeyboardInterrupt:
+            if not path:
+                raise
+            interrupted = True
+    bound = MAX_RADIUS if radius is None else min(radius, MAX_RADIUS)
+
+    def refined(step: PathStep) -> PathStep:
+        started = time.perf_counter()
+        result = refine_model(step.model, estimation, iterations=opts.refine_iterations,
+                              ridge=opts.refine_ridge, max_radius=bound)
+        vaf = compare(result.model, validation, opts.x0).vaf
+        return replace(step, model=result.model, vaf=vaf,
+                       seconds=step.seconds + time.perf_counter() - started)
+
+    if opts.refine == "path" and not interrupted:
+        path[:] = [refined(st) for st in path]
+    selected = select_order(path, opts.order_tolerance)
+    if opts.refine == "selected":
+        path[selected] = refined(path[selected])
+    model = path[selected].model
+    model.info["options"] = opts.to_dict()
+    model.warn_if_unstable(stacklevel=2)
+    return IdentificationResult(
+        model=model, path=path, selected_index=selected, estimation=estimation,
+        validation=validation, validation_source=source, options=opts, nmax=nmax, omega=grid,
+        max_radius=radius, seconds=time.perf_counter() - start, interrupted=interrupted,
+    )
+
+
+def _options(options: IdentifyOptions | None, overrides: dict[str, Any]) -> IdentifyOptions:
+    """The options of one call: ``options`` (or a named preset) with ``overrides`` applied."""
+    preset = overrides.pop("preset", None)
+    if options is not None and not isinstance(options, IdentifyOptions):
+        raise OptionError(f"options must be an IdentifyOptions, got {type(options).__name__}")
+    if preset is not None:
+        if options is not None:
+            raise OptionError("give either options or preset, not both")
+        return IdentifyOptions.preset(preset, **overrides)
+    return (options or IdentifyOptions()).replace(**overrides)

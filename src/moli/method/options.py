@@ -1,0 +1,254 @@
+"""Every choice of an identification in one frozen, validated object.
+
+:class:`IdentifyOptions` is what :func:`moli.identify` runs with, what a saved model
+records and what ``moli fit --options FILE.json`` reads. The named presets are
+instances of it (:meth:`IdentifyOptions.paper`, ...): nothing is set behind the
+caller's back, and the repr shows every value.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from dataclasses import asdict, dataclass, fields, replace
+from typing import Any, Mapping
+
+from ..errors import OptionError
+from ..validation.comparison import X0_CHOICES
+from .regression import FEEDTHROUGH_CHOICES
+from .scoring import MAX_TREND_DEGREE
+from .tuning import TUNING_METHODS
+
+REFINE_CHOICES = ("none", "selected", "path")
+PRESETS = ("improved", "bounded", "paper")
+
+
+def _fail(name: str, accepted: str, value: object) -> OptionError:
+    return OptionError(f"IdentifyOptions.{name} must be {accepted}, got {value!r}")
+
+
+def _integer(name: str, value: object, low: int, high: int | None = None) -> int:
+    accepted = f"an integer >= {low}" if high is None else f"an integer from {low} to {high}"
+    if isinstance(value, bool) or not hasattr(value, "__index__"):
+        raise _fail(name, accepted, value)
+    number = int(value.__index__())  # type: ignore[union-attr]
+    if number < low or (high is not None and number > high):
+        raise _fail(name, accepted, value)
+    return number
+
+
+def _number(name: str, value: object, accepted: str, ok: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) and not hasattr(value, "__float__"):
+        raise _fail(name, accepted, value)
+    number = float(value)  # type: ignore[arg-type]
+    if not (math.isfinite(number) and ok(number)):
+        raise _fail(name, accepted, value)
+    return number
+
+
+def _choice(name: str, value: object, choices: tuple[Any, ...]) -> Any:
+    for choice in choices:
+        if value is choice or (isinstance(value, str) and value == choice):
+            return choice
+    raise _fail(name, "one of " + ", ".join(repr(c) for c in choices), value)
+
+
+def _flag(name: str, value: object) -> bool:
+    if not isinstance(value, bool):
+        raise _fail(name, "True or False", value)
+    return value
+
+
+def _omega(value: object) -> tuple[tuple[float, float], ...] | None:
+    if value is None:
+        return None
+    accepted = "None or a non-empty list of (wc, zeta) pairs with wc > 0 and zeta > 0"
+    try:
+        rows = [tuple(row) for row in value]  # type: ignore[union-attr]
+    except TypeError:
+        raise _fail("omega", accepted, value) from None
+    pairs = []
+    for row in rows:
+        if len(row) != 2:
+            raise _fail("omega", accepted, value)
+        wc, zeta = (_number("omega", v, accepted, lambda x: x > 0) for v in row)
+        pairs.append((wc, zeta))
+    if not pairs:
+        raise _fail("omega", accepted, value)
+    return tuple(pairs)
+
+
+@dataclass(frozen=True)
+class IdentifyOptions:
+    """Every choice of an identification (see docs/method.md for the method).
+
+    Build one with keywords (every field is checked here, before any work), take a
+    named preset (:meth:`improved`, :meth:`bounded`, :meth:`paper`), or change a few
+    fields of one with :meth:`replace`. The defaults are the ``improved`` preset.
+
+    Parameters
+    ----------
+    nmax : int, optional
+        Largest McMillan degree on the greedy path; None: ``max(10, p + 4)``.
+    order_tolerance : float, default 1.0
+        Order rule: lowest order within this many points of the best mean validation VAF.
+    omega : sequence of (wc, zeta), optional
+        Filter candidates, wc in rad per time unit of ``Ts``; None: the paper's grid
+        scaled to ``Ts`` (:func:`moli.method.tuning.default_omega`).
+    tuning : {"grid", "random", "zoom"}, default "grid"
+        Filter search: one barycenter over ``omega``, the paper's randomized
+        barycenter, or a grid refined around its best point.
+    iterations : int, default 5
+        Steps of the randomized or zoom filter search.
+    s : float, default 2.0
+        Root spacing factor of the filter polynomial (faster roots are powers ``z**s``).
+    seed : int, default 0
+        Seed of the randomized filter search.
+    output_filters : bool, default True
+        Re-tune each output's filter cutoff of every path model on J (docs/method.md §11).
+    feedthrough : {True, False, "auto"}, default "auto"
+        Direct feedthrough ``D``; "auto" keeps it per output where a nested F-test on
+        the estimation data finds it significant (docs/method.md §8).
+    max_radius : float, "auto" or None, default 1.0
+        Filter candidates whose model has a pole of this modulus or more score the
+        worst J; "auto": ``exp(-10/N)``; None (or "none"): no bound (docs/method.md §9).
+    criterion_x0 : {"zero", "estimate"}, default "zero"
+        Initial state of the estimation-data simulations behind J.
+    trend_degree : int, default 2
+        J ignores the polynomial trend of this degree in each output's simulation
+        error, 0 to 5 (docs/method.md §10).
+    refine : {"none", "selected", "path"}, default "none"
+        Output-error refinement of the selected model, or of every path model before
+        the order rule (docs/method.md §12); True and False mean "selected" and "none".
+    refine_iterations : int, default 10
+        Most Levenberg-Marquardt steps of the refinement.
+    refine_ridge : float, default 1.0
+        Penalty of the refinement toward the MOLI estimate.
+    center : bool, default True
+        Remove the estimation record's means from both records (the model stores them).
+    x0 : {"zero", "estimate"}, default "zero"
+        Initial state of the validation simulations of the order rule.
+
+    Examples
+    --------
+    >>> opts = IdentifyOptions(nmax=8)
+    >>> opts.nmax, opts.feedthrough
+    (8, 'auto')
+    >>> IdentifyOptions.paper().tuning
+    'random'
+    >>> IdentifyOptions.from_dict(opts.to_dict()) == opts
+    True
+    """
+
+    nmax: int | None = None
+    order_tolerance: float = 1.0
+    omega: tuple[tuple[float, float], ...] | None = None
+    tuning: str = "grid"
+    iterations: int = 5
+    s: float = 2.0
+    seed: int = 0
+    output_filters: bool = True
+    feedthrough: bool | str = "auto"
+    max_radius: float | str | None = 1.0
+    criterion_x0: str = "zero"
+    trend_degree: int = 2
+    refine: str = "none"
+    refine_iterations: int = 10
+    refine_ridge: float = 1.0
+    center: bool = True
+    x0: str = "zero"
+
+    def __post_init__(self) -> None:
+        radius = self.max_radius
+        if radius == "none" or radius is None:
+            radius = None
+        elif radius != "auto":
+            radius = _number("max_radius", radius, "'auto', None or a number in (0, 1]",
+                             lambda r: 0 < r <= 1)
+        refine = {True: "selected", False: "none"}.get(self.refine, self.refine) \
+            if isinstance(self.refine, bool) else self.refine
+        checked = {
+            "nmax": None if self.nmax is None else _integer("nmax", self.nmax, 1),
+            "order_tolerance": _number("order_tolerance", self.order_tolerance,
+                                       "a number >= 0 (points of VAF)", lambda t: t >= 0),
+            "omega": _omega(self.omega),
+            "tuning": _choice("tuning", self.tuning, TUNING_METHODS),
+            "iterations": _integer("iterations", self.iterations, 1),
+            "s": _number("s", self.s, "a number > 1", lambda s: s > 1),
+            "seed": _integer("seed", self.seed, 0),
+            "output_filters": _flag("output_filters", self.output_filters),
+            "feedthrough": _choice("feedthrough", self.feedthrough, FEEDTHROUGH_CHOICES),
+            "max_radius": radius,
+            "criterion_x0": _choice("criterion_x0", self.criterion_x0, X0_CHOICES),
+            "trend_degree": _integer("trend_degree", self.trend_degree, 0, MAX_TREND_DEGREE),
+            "refine": _choice("refine", refine, REFINE_CHOICES),
+            "refine_iterations": _integer("refine_iterations", self.refine_iterations, 1),
+            "refine_ridge": _number("refine_ridge", self.refine_ridge, "a number >= 0",
+                                    lambda r: r >= 0),
+            "center": _flag("center", self.center),
+            "x0": _choice("x0", self.x0, X0_CHOICES),
+        }
+        for name, value in checked.items():
+            object.__setattr__(self, name, value)
+
+    @classmethod
+    def improved(cls, **changes: Any) -> "IdentifyOptions":
+        """The default: grid barycenter, "auto" feedthrough, unstable candidates scored
+        worst, J blind to a quadratic drift, per-output filters."""
+        return cls(**changes)
+
+    @classmethod
+    def bounded(cls, **changes: Any) -> "IdentifyOptions":
+        """Candidates with modes slower than a tenth of the record ruled out, ``s = 3``,
+        the paper's J, one filter shared by the outputs."""
+        return cls(**{"s": 3.0, "max_radius": "auto", "trend_degree": 0, "output_filters": False,
+                      **changes})
+
+    @classmethod
+    def paper(cls, **changes: Any) -> "IdentifyOptions":
+        """The paper's MOLI-ZOFT: randomized barycenter, ``s = 2``, no feedthrough, no
+        stability bound, the paper's J, one shared filter, no refinement."""
+        return cls(**{"tuning": "random", "feedthrough": False, "max_radius": None,
+                      "trend_degree": 0, "output_filters": False, **changes})
+
+    @classmethod
+    def preset(cls, name: str, **changes: Any) -> "IdentifyOptions":
+        """The named preset (one of :data:`PRESETS`) with ``changes`` applied."""
+        if name not in PRESETS:
+            raise OptionError(f"preset must be one of {PRESETS}, got {name!r}")
+        return getattr(cls, name)(**_known(changes))
+
+    def replace(self, **changes: Any) -> "IdentifyOptions":
+        """A copy with some fields changed (checked like the constructor)."""
+        return replace(self, **_known(changes))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON types: ``json.dumps(opts.to_dict())`` works."""
+        out = asdict(self)
+        if self.omega is not None:
+            out["omega"] = [list(pair) for pair in self.omega]
+        return out
+
+    @classmethod
+    def from_dict(cls, content: Mapping[str, Any]) -> "IdentifyOptions":
+        """Options from :meth:`to_dict` output (or a JSON file's content).
+
+        Missing fields take their defaults; an unknown one is an error that suggests
+        the closest field.
+        """
+        if not isinstance(content, Mapping):
+            raise OptionError(f"options must be a mapping of field names to values, got {type(content).__name__}")
+        return cls(**_known(dict(content)))
+
+
+FIELDS = tuple(f.name for f in fields(IdentifyOptions))
+
+
+def _known(changes: Mapping[str, Any]) -> dict[str, Any]:
+    """``changes`` unchanged, or an error naming the first unknown field and the closest one."""
+    for name in changes:
+        if name not in FIELDS:
+            close = difflib.get_close_matches(str(name), FIELDS, n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else f"; the options are {', '.join(FIELDS)}"
+            raise OptionError(f"unknown option {name!r}{hint}")
+    return dict(changes)

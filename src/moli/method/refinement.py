@@ -1,0 +1,345 @@
+"""Output-error refinement of a MOLI model: minimize the simulation error over theta.
+
+The MOLI estimate minimizes a one-step (filtered) equation error. Refinement starts
+from it and minimizes the *simulation* error on the estimation record,
+
+    V(theta, x0) = sum_j |y_j - yhat_j(theta, x0)|^2 / |y_j|^2
+                   + ridge * sum_k d_k^2 (theta_k - theta0_k)^2,
+
+over the same parameters ``theta`` (the observer-form matrices ``D``, ``B``, the
+output coupling ``G`` of ALGORITHM.md section 4 and the feedthrough when the model
+has one, with the filter ``alpha`` kept), and
+optionally the initial state ``x0`` of the estimation record, a nuisance parameter.
+``d_k`` is the norm of the ``k``-th Jacobian column at the start, so ``ridge`` is a
+fraction of the data term's own curvature and does not depend on the units.
+
+The solver is Levenberg-Marquardt with analytic Jacobians: every parameter's
+sensitivity is a convolution of the model's impulse response from one state with an
+input or a simulated output, computed for all parameters at once by FFT. A step is
+accepted only if it lowers ``V`` *and* keeps every pole inside the circle of radius
+``max_radius``, so a stable start stays stable and ``V`` never increases.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.fft
+
+from ..data.iodata import IOData
+from ..errors import DataError, OptionError
+from .estimation import _filter_companion
+from .filters import divisors
+from ..models.statespace import StateSpaceModel
+from ..models.simulation import free_response, simulate_batch
+
+# Poles may move up to this radius: 1 - 1e-3 keeps time constants below 1000 samples,
+# far beyond any record the method is used on, while leaving round-off room.
+MAX_RADIUS = 1.0 - 1e-3
+
+
+@dataclass
+class ObserverForm:
+    """The observer-form pieces of a MOLI model.
+
+    ``A = A_D + D C``, ``C = (I - G)^-1 C_D``; ``B`` and the feedthrough ``F`` (zero
+    unless the model was estimated with one) are free.
+    """
+
+    A_D: np.ndarray
+    C_D: np.ndarray
+    D: np.ndarray
+    B: np.ndarray
+    G: np.ndarray
+    F: np.ndarray
+
+    def matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(A, B, C)`` of the model (its feedthrough is ``F``)."""
+        p = self.G.shape[0]
+        C = np.linalg.solve(np.eye(p) - self.G, self.C_D)
+        return self.A_D + self.D @ C, self.B, C
+
+
+def observer_form(model: StateSpaceModel) -> ObserverForm:
+    """Recover ``A_D, C_D, D, B, G`` from a model estimated by MOLI.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        Must carry ``indices`` and its filters, ``alpha`` or per-output ``divisors``
+        (models from :func:`moli.estimate` or :func:`moli.identify` do).
+
+    Returns
+    -------
+    ObserverForm
+    """
+    filters = model.divisors
+    if filters is None and model.alpha is not None and model.indices is not None:
+        filters = divisors(model.alpha, model.indices)
+    if filters is None:
+        raise DataError("refinement needs a MOLI model that carries its indices and filter polynomials")
+    indices = model.indices
+    n, p = model.n, model.p
+    A_D = _filter_companion([alpha_j[None] for alpha_j in filters], indices)[0]
+    C_D = np.zeros((p, n))
+    last = np.cumsum(indices) - 1
+    C_D[np.arange(p), last] = 1.0
+    inverse = model.C[:, last]              # (I - G)^-1, unit lower triangular
+    G = np.eye(p) - np.linalg.inv(inverse)  # p x p triangular, p small
+    G = np.tril(G, -1)
+    D = np.linalg.lstsq(model.C.T, (model.A - A_D).T, rcond=None)[0].T
+    return ObserverForm(A_D, C_D, D, model.B.copy(), G, model.D.copy())
+
+
+@dataclass
+class RefineResult:
+    """Outcome of :func:`refine`.
+
+    Attributes
+    ----------
+    model : StateSpaceModel
+        Refined model (same indices, alpha, offsets; ``info['refined']`` added).
+    x0 : ndarray, shape (n,)
+        Initial state of the estimation record (zero unless estimated).
+    cost_start, cost : float
+        ``V`` at the start and at the end (``cost <= cost_start``).
+    iterations : int
+        Accepted steps.
+    rejected_unstable : int
+        Proposed steps refused because they left the stability radius.
+    """
+
+    model: StateSpaceModel
+    x0: np.ndarray
+    cost_start: float
+    cost: float
+    iterations: int
+    rejected_unstable: int
+
+
+def _sensitivities(A: np.ndarray, C: np.ndarray, signals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Responses ``C (qI - A)^-1 e_a v`` for every state ``a`` and signal ``v``.
+
+    Returns ``S`` of shape (N, p, n, k) and the free responses ``C A^t e_a``, (N, p, n).
+    """
+    N = signals.shape[0]
+    free = free_response(A, C, N)                     # (N, p, n): C A^t
+    # any length from 2N - 1 on keeps the circular convolution's first N samples
+    # linear; 2N itself can be a slow length (glassfurnace: 2 x 7 x 89)
+    size = scipy.fft.next_fast_len(2 * N - 1, real=True)
+    H = scipy.fft.rfft(free, size, axis=0)            # (F, p, n)
+    V = scipy.fft.rfft(signals, size, axis=0)         # (F, k)
+    S = scipy.fft.irfft(H[:, :, :, None] * V[:, None, None, :], size, axis=0)[: N - 1]
+    out = np.zeros((N,) + S.shape[1:])
+    out[1:] = S                                        # one-step delay of (qI - A)^-1
+    return out, free
+
+
+class _Problem:
+    """Residuals and Jacobian of the output-error criterion in observer-form parameters."""
+
+    def __init__(self, form: ObserverForm, u: np.ndarray, y: np.ndarray, fit_x0: bool) -> None:
+        self.form = form
+        self.feedthrough = bool(np.any(form.F != 0))
+        self.u, self.y = u, y
+        self.n, self.p, self.m = form.B.shape[0], y.shape[1], u.shape[1]
+        self.weights = 1.0 / np.maximum(np.linalg.norm(y, axis=0), 1e-300)
+        self.fit_x0 = fit_x0
+        self.lower = np.tril_indices(self.p, -1)
+
+    def pack(self, form: ObserverForm, x0: np.ndarray) -> np.ndarray:
+        parts = [form.D.ravel(), form.B.ravel(), form.G[self.lower]]
+        if self.feedthrough:
+            parts.append(form.F.ravel())
+        if self.fit_x0:
+            parts.append(x0)
+        return np.concatenate(parts)
+
+    def unpack(self, theta: np.ndarray) -> tuple[ObserverForm, np.ndarray]:
+        n, p, m = self.n, self.p, self.m
+        D = theta[: n * p].reshape(n, p)
+        B = theta[n * p : n * p + n * m].reshape(n, m)
+        G = np.zeros((p, p))
+        count = len(self.lower[0])
+        G[self.lower] = theta[n * p + n * m : n * p + n * m + count]
+        at = n * p + n * m + count
+        F = np.zeros((p, m))
+        if self.feedthrough:
+            F = theta[at : at + p * m].reshape(p, m)
+            at += p * m
+        x0 = theta[at:] if self.fit_x0 else np.zeros(n)
+        return ObserverForm(self.form.A_D, self.form.C_D, D, B, G, F), x0
+
+    def simulate(self, theta: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, ...], np.ndarray]:
+        form, x0 = self.unpack(theta)
+        A, B, C = form.matrices()
+        yhat = simulate_batch(A[None], B[None], C[None], self.u, x0[None])[0] + self.u @ form.F.T
+        return yhat, (A, B, C), form.G
+
+    def residual(self, yhat: np.ndarray) -> np.ndarray:
+        return ((self.y - yhat) * self.weights).ravel()
+
+    def initial_state_columns(self, theta: np.ndarray) -> np.ndarray:
+        """d yhat / d x0, weighted, shape (N p, n): the Jacobian's last columns."""
+        form, _ = self.unpack(theta)
+        A, _, C = form.matrices()
+        free = free_response(A, C, self.y.shape[0])
+        return (free * self.weights[None, :, None]).reshape(-1, self.n)
+
+    def jacobian(self, theta: np.ndarray, yhat: np.ndarray) -> np.ndarray:
+        """d yhat / d theta, weighted, shape (N p, parameters)."""
+        n, p, m = self.n, self.p, self.m
+        form, _ = self.unpack(theta)
+        A, _, C = form.matrices()
+        yx = yhat - self.u @ form.F.T                   # C x: the part the state produces
+        S, free = _sensitivities(A, C, np.concatenate([self.u, yx], axis=1))
+        N = self.y.shape[0]
+        cols = [
+            S[:, :, :, m:].reshape(N, p, n * p),       # D[a, b]: signal yhat_b into state a
+            S[:, :, :, :m].reshape(N, p, n * m),       # B[a, b]: input u_b into state a
+        ]
+        H = np.linalg.inv(np.eye(p) - form.G)
+        g_cols = []
+        for i, j in zip(*self.lower):
+            direct = np.outer(yx[:, j], H[:, i])                           # dC x = H e_i (C x)_j
+            through = np.einsum("tpa,a->tp", S[:, :, :, m + j], form.D @ H[:, i])
+            g_cols.append(direct + through)
+        if g_cols:
+            cols.append(np.stack(g_cols, axis=2))
+        if self.feedthrough:                       # F[i, j]: u_j straight to y_i
+            eye = np.eye(p)
+            cols.append((eye[None, :, :, None] * self.u[:, None, None, :]).reshape(N, p, p * m))
+        if self.fit_x0:
+            cols.append(free)
+        jac = np.concatenate(cols, axis=2) * self.weights[None, :, None]
+        return jac.reshape(N * p, -1)
+
+
+def refine(
+    model: StateSpaceModel,
+    data: IOData,
+    *,
+    iterations: int = 10,
+    ridge: float = 0.0,
+    fit_x0: bool = True,
+    max_radius: float = MAX_RADIUS,
+    tolerance: float = 1e-4,
+) -> RefineResult:
+    """Minimize the simulation error of a MOLI model on its estimation data.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        Start, e.g. ``moli.estimate(...)`` or ``identify(...).model``; must carry
+        ``indices`` and ``alpha``. Must be stable (an unstable start is returned
+        unchanged, with zero iterations).
+    data : IOData
+        Estimation record, centred like the data the model was estimated on.
+    iterations : int, default 10
+        Most Levenberg-Marquardt steps to accept (few steps act as early stopping).
+    ridge : float, default 0.0
+        Weight of the penalty toward the start, relative to each parameter's
+        curvature in the data term (0: free refinement).
+    fit_x0 : bool, default True
+        Estimate the initial state of the estimation record jointly.
+    max_radius : float, default 1 - 1e-3
+        Steps that move a pole to this radius or beyond are refused.
+    tolerance : float, default 1e-4
+        Stop when a step lowers ``V`` by less than this fraction.
+
+    Returns
+    -------
+    RefineResult
+
+    Examples
+    --------
+    >>> import numpy as np, moli
+    >>> from moli.method.refinement import refine
+    >>> est, _ = moli.example_data(N=600, seed=1).split(400)
+    >>> est = est.remove_means()
+    >>> start = moli.estimate(est, [2, 1, 1], moli.filter_polynomial(0.5, 0.8, [2, 1, 1]))
+    >>> result = refine(start, est)
+    >>> bool(result.cost <= result.cost_start)
+    True
+    """
+    if int(iterations) != iterations or iterations < 0:
+        raise OptionError(f"iterations must be a non-negative integer, got {iterations!r}")
+    if not (np.isfinite(ridge) and ridge >= 0):
+        raise OptionError(f"ridge must be a non-negative number, got {ridge!r}")
+    if not 0 < max_radius <= 1:
+        raise OptionError(f"max_radius must be in (0, 1], got {max_radius!r}")
+    if (data.p, data.m) != (model.p, model.m):
+        raise DataError(f"model has {model.p} outputs and {model.m} inputs, data {data.p} and {data.m}")
+    form = observer_form(model)
+    problem = _Problem(form, data.u, data.y, fit_x0)
+    theta0 = problem.pack(form, np.zeros(model.n))
+    theta = theta0.copy()
+    yhat, _, _ = problem.simulate(theta)
+    residual = problem.residual(yhat)
+    stable = bool(np.max(np.abs(model.poles()), initial=0.0) < max_radius)
+    if fit_x0 and stable:
+        # start from the best initial state for the start model (a linear problem)
+        theta[-model.n :] = np.linalg.lstsq(problem.initial_state_columns(theta), residual, rcond=None)[0]
+        yhat, _, _ = problem.simulate(theta)
+        residual = problem.residual(yhat)
+    scale = None
+    penalty = np.sqrt(ridge)
+
+    def total(res: np.ndarray, th: np.ndarray) -> float:
+        extra = 0.0 if scale is None or ridge == 0 else float(np.sum((penalty * scale * (th - theta0)) ** 2))
+        return float(res @ res) + extra
+
+    cost_start = float(residual @ residual)
+    cost = cost_start
+    accepted = rejected = 0
+    damping = 1e-3
+    if stable:
+        while accepted < iterations:
+            jac = problem.jacobian(theta, yhat)
+            norms = np.linalg.norm(jac, axis=0)
+            norms[norms == 0] = 1.0
+            if scale is None:
+                scale = norms.copy()
+                if fit_x0:
+                    scale[-model.n :] = 0.0     # x0 is a nuisance parameter: not penalised
+            # |jac s - residual| = |T[:, :-1] s - T[:, -1]| for the triangular factor T
+            # of [jac, residual]: each damping tried below solves a problem of the
+            # parameters' size instead of the record's
+            reduced = np.linalg.qr(np.column_stack([jac, residual]), mode="r")
+            improved = False
+            while damping < 1e8:
+                rows = [reduced[:, :-1], np.diag(np.sqrt(damping) * norms)]
+                rhs = [reduced[:, -1], np.zeros(theta.size)]
+                if ridge > 0:
+                    rows.append(np.diag(penalty * scale))
+                    rhs.append(-penalty * scale * (theta - theta0))
+                step = np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)[0]
+                trial = theta + step
+                new_yhat, (A, _, _), _ = problem.simulate(trial)
+                if np.max(np.abs(np.linalg.eigvals(A))) >= max_radius:
+                    rejected += 1
+                    damping *= 10
+                    continue
+                new_res = problem.residual(new_yhat)
+                new_cost = total(new_res, trial)
+                if np.isfinite(new_cost) and new_cost < cost:
+                    gain = (cost - new_cost) / cost
+                    theta, yhat, residual, cost = trial, new_yhat, new_res, new_cost
+                    damping = max(damping / 10, 1e-9)
+                    improved = True
+                    accepted += 1
+                    break
+                damping *= 10
+            if not improved or gain < tolerance:
+                break
+    form_end, x0 = problem.unpack(theta)
+    A, B, C = form_end.matrices()
+    F = form_end.F
+    if accepted == 0:  # nothing accepted: keep the start's matrices bit for bit
+        A, B, C, F = model.A, model.B, model.C, model.D
+    info = dict(model.info)
+    info.update({"refined": True, "refine_iterations": accepted, "refine_ridge": ridge,
+                 "refine_cost_start": cost_start, "refine_cost": cost})
+    refined = model.with_matrices(A, B, C, F, info, model.divisors)
+    return RefineResult(refined, x0, cost_start, cost, accepted, rejected)

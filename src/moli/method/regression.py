@@ -1,0 +1,319 @@
+"""The least-squares problems of a filter search, factored once and shared.
+
+Every list of indices tried with the same filter ``alpha`` solves its per-output
+problems from one triangular factor of the filtered record (docs/method.md §3 and §8):
+:class:`RegressionCache` holds those factors, the per-output solutions and the
+nested F-test of the "auto" feedthrough.
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Sequence
+
+import numpy as np
+import scipy.linalg
+import scipy.linalg.lapack
+from numpy.lib.stride_tricks import as_strided
+
+from ..errors import OptionError
+from .estimation import solve_batch
+from .filters import _needs_real, filter_rows
+from .structure import Indices
+
+FEEDTHROUGH_CHOICES = (False, True, "auto")
+# Significance level of the "auto" feedthrough test. Strict, because the equation
+# errors are coloured and the nominal F distribution then overstates significance.
+FEEDTHROUGH_LEVEL = 1e-3
+# Block size of the QR of the filtered data: the record-long matrices have a few dozen
+# columns, too few for LAPACK's blocked dgeqrf (which then applies one reflector at a
+# time); dgeqrt in blocks of 8 took 17-44 % less time on 433 x 30 to 645 x 90
+QR_BLOCK = 8
+
+
+class RegressionCache:
+    """Triangular factors and per-output solutions shared by the lists of one search.
+
+    For a filter ``alpha`` of degree ``nbar`` the observer state ``xi`` holds every
+    signal filtered by ``q^t/alpha``, ``t < nbar``; each output's regressors are ``xi``
+    times a fixed matrix built from ``alpha/alpha_j`` (ALGORITHM.md, section 3), and
+    its earlier outputs are columns of ``y``. So one QR of ``X = [xi, y]`` (triangular
+    factor only) serves every output and every list that uses the same ``alpha``: each
+    least-squares problem ``min |X (T theta - e)|`` becomes the small problem
+    ``min |R (T theta - e)|``, with the same solution. Solutions are cached per
+    ``(alpha, output, index)``, so a list that differs from an earlier one in a single
+    index re-solves a single output.
+
+    Parameters
+    ----------
+    z : ndarray, shape (N, p + m)
+        Estimation outputs then inputs (centred).
+    p : int
+        Number of outputs.
+    feedthrough : {False, True, "auto"}
+        Add the current inputs to every output's regressors (direct feedthrough);
+        ``"auto"`` keeps them for an output only where a nested F-test on the
+        estimation data finds them significant at level :data:`FEEDTHROUGH_LEVEL`
+        (otherwise that output's feedthrough is exactly zero).
+    """
+
+    def __init__(self, z: np.ndarray, p: int, feedthrough: bool | str = False) -> None:
+        if feedthrough not in FEEDTHROUGH_CHOICES:
+            raise OptionError(f"feedthrough must be one of {FEEDTHROUGH_CHOICES}, got {feedthrough!r}")
+        self.z = z
+        self.p = p
+        self.feedthrough = feedthrough
+        # columns appended to xi: the outputs, and the inputs when they feed through
+        self.extra = z.shape[1] if feedthrough else p
+        self._factors: dict[bytes, np.ndarray] = {}
+        self._thetas: dict[tuple[bytes, int, int], np.ndarray] = {}
+        # quotient maps of a batch of filters for one divisor degree (outputs share them)
+        self._quotients: dict[tuple[tuple[bytes, ...], int], np.ndarray] = {}
+        # filter polynomials by degree, per eta and root-rule key (see filters)
+        self._filters: dict[tuple, dict[int, np.ndarray]] = {}
+        self.factorizations = 0
+        self.solves = 0
+
+    def filters(
+        self, etas: np.ndarray, indices: Indices, Ts: float, s: float
+    ) -> tuple[list[np.ndarray], list[list[np.ndarray]]]:
+        """``alpha`` and the divisors of ``indices`` for each row ``eta = (wc, zeta)`` (cached).
+
+        The roots depend on ``indices`` only through ``max(indices)`` and whether an
+        odd index below it needs a real root (see :mod:`moli.method.filters`): that is the key.
+        Filters not seen yet are built together by :func:`moli.method.filters.filter_rows`.
+        """
+        etas = np.asarray(etas, float)
+        nbar, needs_real = max(indices), _needs_real(indices)
+        keys = [(w, zeta, Ts, s, nbar, needs_real) for w, zeta in etas.tolist()]
+        degrees = set(indices)
+        todo = [i for i, k in enumerate(keys) if not degrees <= self._filters.get(k, {}).keys()]
+        if todo:
+            _, built = filter_rows(etas[todo], indices, Ts, s)
+            for row, i in enumerate(todo):
+                known = self._filters.setdefault(keys[i], {})
+                for l, coeffs in built.items():
+                    known.setdefault(l, coeffs[row])     # an alpha already used keeps its bytes
+        found = [self._filters[k] for k in keys]
+        return [f[nbar] for f in found], [[f[l] for l in indices] for f in found]
+
+    def factor(self, alphas: Sequence[np.ndarray]) -> list[np.ndarray]:
+        """Triangular factors of ``[xi, y]`` for each filter polynomial (batched, cached)."""
+        keys = [a.tobytes() for a in alphas]
+        todo = {k: a for k, a in zip(keys, alphas) if k not in self._factors}
+        if todo:
+            by_degree: dict[int, list[tuple[bytes, np.ndarray]]] = {}
+            for k, a in todo.items():
+                by_degree.setdefault(a.size - 1, []).append((k, a))
+            from scipy.signal import lfilter  # scipy.signal is slow to import: only when filtering
+
+            N, c = self.z.shape
+            signals = np.ascontiguousarray(self.z.T)
+            for nbar, items in by_degree.items():
+                rows, cols = N - nbar, c * nbar + self.extra
+                # each matrix stored column by column: LAPACK factors it in place, without
+                # the copies np.linalg.qr makes of its input
+                columns = np.empty((len(items), cols, rows))
+                for i, (_, a) in enumerate(items):
+                    # column r nbar + t (channel r filtered by q^t/alpha, from sample nbar
+                    # on) is the filtered channel r from sample t on
+                    base = lfilter([1.0], a, signals, axis=-1)
+                    s_r, s_k = base.strides
+                    delayed = as_strided(base, (c, nbar, rows), (s_r, s_k, s_k), writeable=False)
+                    np.copyto(columns[i, : c * nbar].reshape(c, nbar, rows), delayed)
+                columns[:, c * nbar :] = signals[: self.extra, nbar:]
+                block = min(QR_BLOCK, rows, cols)
+                below = _below_diagonal(min(rows, cols), cols)
+                for (k, _), matrix in zip(items, columns):
+                    factored = scipy.linalg.lapack.dgeqrt(block, matrix.T, overwrite_a=True)[0]
+                    factor = np.array(factored[: min(rows, cols)], order="C")
+                    factor[below] = 0.0          # the reflectors LAPACK leaves below R
+                    self._factors[k] = factor
+                self.factorizations += len(items)
+        return [self._factors[k] for k in keys]
+
+    def solve(
+        self, batches: Sequence[tuple[Sequence[np.ndarray], Sequence[Sequence[np.ndarray]], Indices]]
+    ) -> list[list[bytes]]:
+        """Solve and cache the per-output problems of several batches of filters.
+
+        Each batch is ``(alphas, divisors, indices)``: filter polynomials, each
+        one's divisors for ``indices``, and the list. The factors of all the new
+        filters are computed together, and the problems of one shape (filter degree,
+        output, index) are solved together whichever batch they come from.
+
+        Returns
+        -------
+        list of list of bytes
+            Each batch's filter keys, for :meth:`thetas`.
+        """
+        keys = [[a.tobytes() for a in alphas] for alphas, _, _ in batches]
+        groups: dict[tuple[int, int, int], dict[bytes, tuple[np.ndarray, np.ndarray]]] = {}
+        for (alphas, divisors_, indices), batch_keys in zip(batches, keys):
+            for key, alpha, divs in zip(batch_keys, alphas, divisors_):
+                for j, l in enumerate(indices):
+                    if (key, j, l) not in self._thetas:
+                        groups.setdefault((alpha.size - 1, j, l), {}).setdefault(key, (alpha, divs[j]))
+        if not groups:
+            return keys
+        needed = {k: a for members in groups.values() for k, (a, _) in members.items()}
+        factors = dict(zip(needed, self.factor(list(needed.values()))))
+        c = self.z.shape[1]
+        extra_u = c - self.p if self.feedthrough else 0
+        for (nbar, j, l), members in groups.items():
+            batch = (tuple(members), l)
+            if batch not in self._quotients:
+                self._quotients[batch] = _quotient_map(
+                    np.stack([a for a, _ in members.values()]), np.stack([d for _, d in members.values()])
+                )
+            small, rhs = _small_problems(
+                np.stack([factors[k] for k in members]), self._quotients[batch], c, self.p, j, extra_u
+            )
+            if self.feedthrough == "auto":
+                theta = self._solve_tested(small, rhs, nbar)
+            else:
+                theta = solve_batch(small, rhs)[0]
+            for k, row in zip(members, theta):
+                self._thetas[(k, j, l)] = row
+            self.solves += len(members)
+        return keys
+
+    def thetas(self, keys: Sequence[bytes], indices: Indices) -> list[np.ndarray]:
+        """Per-output parameters of solved filters (keys from :meth:`solve`), as :func:`fit_batch` has them.
+
+        ``thetas[j]`` has shape (R, (p + m) l_j + j), followed by the ``m`` feedthrough
+        coefficients when the cache was built with ``feedthrough``.
+        """
+        return [np.array([self._thetas[(k, j, l)] for k in keys]) for j, l in enumerate(indices)]
+
+    def _solve_tested(self, small: np.ndarray, rhs: np.ndarray, nbar: int) -> np.ndarray:
+        """Solve with feedthrough, and keep it only where an F-test on the estimation data asks.
+
+        ``small`` (R, k, q) and ``rhs`` (R, k) are reduced problems
+        (:func:`_small_problems`) of filters of degree ``nbar``, with the ``m``
+        feedthrough columns last. The residual sums of squares of the reduced problems
+        equal those of the full ones (``|X v| = |R v|``), and one triangular factor of
+        the column-scaled ``[M, b]`` gives both nested fits: the problem without
+        feedthrough is its leading block. The level :data:`FEEDTHROUGH_LEVEL` is strict
+        because the residuals are coloured.
+        """
+        m = self.z.shape[1] - self.p
+        count, k_rows, q1 = small.shape
+        dof = self.z.shape[0] - nbar - q1
+        if k_rows <= q1 or dof <= 0:
+            return solve_batch(small, rhs)[0]        # short records: keep the feedthrough
+        q0 = q1 - m
+        norms = np.sqrt(np.add.reduce(small * small, axis=1, keepdims=True))   # np.linalg.norm's sums
+        norms[norms == 0] = 1.0
+        # each matrix stored column by column for LAPACK, factored in place one at a
+        # time: most batches hold one or two filters, where a stacked np.linalg.qr and
+        # solve cost several times the arithmetic (same routines, same R)
+        scaled = np.empty((count, q1 + 1, k_rows))
+        np.divide(small.transpose(0, 2, 1), norms.transpose(0, 2, 1), out=scaled[:, :q1])
+        scaled[:, q1] = rhs
+        critical = _f_critical(m, dof)
+        theta = np.zeros((count, q1))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            for i in range(count):
+                r = scipy.linalg.lapack.dgeqrf(scaled[i].T, overwrite_a=True)[0]
+                rss1 = r[q1, q1] ** 2
+                tail = r[q0 : q1 + 1, q1]
+                statistic = (tail @ tail - rss1) / m / (rss1 / dof)
+                k = q0 if statistic <= critical else q1    # NaN (exact fit) keeps the feedthrough
+                diag = np.abs(r.diagonal()[:k])
+                smallest = diag.min()
+                if smallest > 0 and diag.max() / smallest < 1e13:
+                    theta[i, :k] = scipy.linalg.lapack.dtrtrs(r[:k, :k], r[:k, q1])[0]
+                else:                                      # rank deficient: minimum-norm solution
+                    theta[i, :k] = scipy.linalg.lstsq(small[i, :, :k] / norms[i, 0, :k], rhs[i])[0]
+        return theta / norms[:, 0, :]
+
+
+@functools.lru_cache(maxsize=None)
+def _below_diagonal(rows: int, cols: int) -> np.ndarray:
+    """Boolean mask of the entries below the diagonal of a ``rows x cols`` matrix."""
+    return np.tri(rows, cols, -1, dtype=bool)
+
+
+@functools.lru_cache(maxsize=None)
+def _f_critical(m: int, dof: int) -> float:
+    """Critical value of the F(m, dof) distribution at level :data:`FEEDTHROUGH_LEVEL`."""
+    import scipy.stats  # slow to import, needed only by the "auto" feedthrough
+
+    return float(scipy.stats.f.isf(FEEDTHROUGH_LEVEL, m, dof))
+
+
+def _quotient_map(alpha: np.ndarray, alpha_j: np.ndarray) -> np.ndarray:
+    """``(nbar, l)`` matrix ``Q`` with ``Q[t, i]`` the weight of ``q^t/alpha`` in ``q^i/alpha_j``.
+
+    With ``alpha/alpha_j = sum_k c_k q^(d-k)``, ``d = nbar - l``:
+    ``q^i/alpha_j = q^i (alpha/alpha_j)/alpha = sum_k c_k q^(i+d-k)/alpha``.
+    Stacks of polynomials (leading axes) give a stack of maps.
+    """
+    nbar, l = alpha.shape[-1] - 1, alpha_j.shape[-1] - 1
+    d = nbar - l
+    # monic long division alpha / alpha_j (exact: alpha_j divides alpha); c_k is left
+    # in rest[k], where the division would only write a zero
+    rest = alpha.copy()
+    tail = alpha_j[..., 1:]
+    for k in range(d + 1):
+        rest[..., k + 1 : k + l + 1] -= rest[..., k, None] * tail
+    quotient = np.zeros(alpha.shape[:-1] + (d + 2,))      # c_0 .. c_d, then a zero
+    quotient[..., : d + 1] = rest[..., : d + 1]
+    return quotient[..., _band(nbar, l)]
+
+
+@functools.lru_cache(maxsize=None)
+def _band(nbar: int, l: int) -> np.ndarray:
+    """Index ``k`` of ``c_k`` at each entry of an ``(nbar, l)`` quotient map; ``d + 1`` off the band."""
+    d = nbar - l
+    k = np.arange(l)[None, :] + d - np.arange(nbar)[:, None]
+    return np.where((k >= 0) & (k <= d), k, d + 1)
+
+
+def _regressor_map(
+    alpha: np.ndarray, alpha_j: np.ndarray, c: int, p: int, j: int, m: int = 0
+) -> np.ndarray:
+    """Matrix ``T`` with ``[xi, y] T`` = output ``j``'s regressors ``[w_j, y_<j]``.
+
+    Column ``r l + i`` is ``q^i/alpha_j`` applied to channel ``r``, a combination of the
+    columns ``r nbar + t`` of ``xi`` (see :func:`_quotient_map`). With ``m > 0`` the data
+    matrix is ``[xi, y, u]`` and the ``m`` current inputs are appended to the regressors
+    (direct feedthrough).
+    """
+    nbar, l = alpha.size - 1, alpha_j.size - 1
+    T = np.kron(np.eye(c), _quotient_map(alpha, alpha_j))
+    tail = np.zeros((p + m, c * l + j + m))
+    tail[np.arange(j), c * l + np.arange(j)] = 1.0
+    tail[p + np.arange(m), c * l + j + np.arange(m)] = 1.0
+    return np.vstack([np.hstack([T, np.zeros((c * nbar, j + m))]), tail])
+
+
+def _small_problems(
+    factors: np.ndarray, quotients: np.ndarray, c: int, p: int, j: int, m: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """``(R T, R e)``: output ``j``'s least-squares problems reduced by the factors ``R``.
+
+    Same as ``factor @ _regressor_map(...)`` for each filter, without forming ``T``.
+
+    Parameters
+    ----------
+    factors : ndarray, shape (B, k, c nbar + p [+ m])
+        Triangular factors of ``[xi, y]`` (``[xi, y, u]`` with feedthrough), one per filter.
+    quotients : ndarray, shape (B, nbar, l)
+        Each filter's :func:`_quotient_map` for output ``j``'s divisor.
+    c, p, j, m : int
+        Signals, outputs, the output and the feedthrough inputs (0 for none).
+
+    Returns
+    -------
+    ndarray, shape (B, k, c l + j + m)
+    ndarray, shape (B, k)
+    """
+    B, k = factors.shape[:2]
+    nbar = quotients.shape[1]
+    w = (factors[:, :, : c * nbar].reshape(B, k, c, nbar) @ quotients[:, None]).reshape(B, k, -1)
+    parts = [w, factors[:, :, c * nbar : c * nbar + j]]
+    if m:
+        parts.append(factors[:, :, c * nbar + p : c * nbar + p + m])
+    return np.concatenate(parts, axis=2), factors[:, :, c * nbar + j]

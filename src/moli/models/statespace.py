@@ -1,0 +1,278 @@
+"""The identified state-space model."""
+
+from __future__ import annotations
+
+import json
+import warnings
+from pathlib import Path
+from typing import Any, Sequence
+
+import numpy as np
+
+from .._version import __version__
+from ..data.iodata import as_signal
+from ..errors import DataError, ModelFileError, UnstableModelWarning
+from .simulation import simulate_batch
+
+FILE_FORMAT = "moli-model"
+
+
+def _matrix(name: str, value: object, shape: tuple[int, int] | None = None) -> np.ndarray:
+    array = np.array(value, dtype=float, ndmin=2)
+    if array.ndim != 2 or not np.all(np.isfinite(array)):
+        raise DataError(f"{name} must be a finite 2-D matrix, got shape {array.shape}")
+    if shape is not None and array.shape != shape:
+        raise DataError(f"{name} must have shape {shape}, got {array.shape}")
+    return array
+
+
+class StateSpaceModel:
+    """Discrete-time model ``x[k+1] = A x[k] + B u[k]``, ``y[k] = C x[k] + D u[k]``.
+
+    The model acts on deviations from the operating point ``(u_offset, y_offset)``
+    that was removed from the estimation data (zero when none was removed).
+
+    Parameters
+    ----------
+    A, B, C : array_like
+        Shapes (n, n), (n, m), (p, n).
+    D : array_like, optional
+        Feedthrough, shape (p, m); zero by default (MOLI models have none).
+    Ts : float, default 1.0
+        Sampling period.
+    output_names, input_names : sequence of str, optional
+    indices : sequence of int, optional
+        List of observability indices the model was estimated with.
+    alpha : array_like, optional
+        Filter polynomial the model was estimated with (one filter shared by the
+        outputs: output ``j``'s divisor is the divisor of degree ``indices[j]``).
+    y_offset, u_offset : array_like, optional
+        Operating point removed from the data before estimation.
+    info : dict, optional
+        JSON-serialisable facts about the estimation (filter parameters, J, ...).
+    divisors : sequence of array_like, optional
+        Per-output filter polynomials when each output had a filter of its own
+        (``divisors[j]`` monic, stable, of degree ``indices[j]``); needs ``indices``.
+
+    Examples
+    --------
+    >>> m = StateSpaceModel([[0.5]], [[1.0]], [[1.0]])
+    >>> m.simulate([1.0, 0.0, 0.0]).ravel()
+    array([0. , 1. , 0.5])
+    """
+
+    def __init__(
+        self,
+        A: object,
+        B: object,
+        C: object,
+        D: object | None = None,
+        Ts: float = 1.0,
+        output_names: Sequence[str] | None = None,
+        input_names: Sequence[str] | None = None,
+        indices: Sequence[int] | None = None,
+        alpha: Sequence[float] | None = None,
+        y_offset: object | None = None,
+        u_offset: object | None = None,
+        info: dict[str, Any] | None = None,
+        *,
+        divisors: Sequence[Sequence[float]] | None = None,
+    ) -> None:
+        self.A = _matrix("A", A)
+        n = self.A.shape[0]
+        if self.A.shape != (n, n):
+            raise DataError(f"A must be square, got shape {self.A.shape}")
+        self.B = _matrix("B", B)
+        self.C = _matrix("C", C)
+        if self.B.shape[0] != n or self.C.shape[1] != n:
+            raise DataError(f"B needs {n} rows and C {n} columns, got {self.B.shape} and {self.C.shape}")
+        p, m = self.C.shape[0], self.B.shape[1]
+        self.D = np.zeros((p, m)) if D is None else _matrix("D", D, (p, m))
+        if not (np.isfinite(Ts) and Ts > 0):
+            raise DataError(f"Ts must be positive, got {Ts!r}")
+        self.Ts = float(Ts)
+        self.output_names = tuple(output_names) if output_names is not None else tuple(f"y{i + 1}" for i in range(p))
+        self.input_names = tuple(input_names) if input_names is not None else tuple(f"u{i + 1}" for i in range(m))
+        if len(self.output_names) != p or len(self.input_names) != m:
+            raise DataError(f"need {p} output names and {m} input names")
+        self.indices = None if indices is None else tuple(int(v) for v in indices)
+        self.alpha = None if alpha is None else np.array(alpha, dtype=float)
+        self.y_offset = np.zeros(p) if y_offset is None else np.array(y_offset, dtype=float).reshape(p)
+        self.u_offset = np.zeros(m) if u_offset is None else np.array(u_offset, dtype=float).reshape(m)
+        self.info = dict(info or {})
+        self.divisors = None if divisors is None else self._checked_divisors(divisors)
+
+    def _checked_divisors(self, given: Sequence[Sequence[float]]) -> tuple[np.ndarray, ...]:
+        if self.indices is None or len(given) != len(self.indices) or len(self.indices) != self.p:
+            raise DataError(f"divisors need the model's indices, one divisor per output ({self.p})")
+        checked = []
+        for j, (coeffs, l) in enumerate(zip(given, self.indices)):
+            alpha_j = _matrix(f"divisor of output {j + 1}", coeffs).ravel()
+            if alpha_j.size - 1 != l or alpha_j[0] != 1.0:
+                raise DataError(f"divisor of output {j + 1} must be monic of degree {l}, got {alpha_j.tolist()}")
+            if np.max(np.abs(np.roots(alpha_j))) >= 1.0:
+                raise DataError(f"divisor of output {j + 1} must be stable (roots strictly inside the unit circle)")
+            checked.append(alpha_j)
+        return tuple(checked)
+
+    def with_matrices(
+        self, A: object, B: object, C: object, D: object | None, info: dict[str, Any],
+        divisors: Sequence[Sequence[float]] | None,
+    ) -> "StateSpaceModel":
+        """The same channels, structure and operating point with new matrices and filters.
+
+        ``divisors`` given: per-output filters (``alpha`` dropped); None keeps ``alpha``.
+        """
+        return StateSpaceModel(
+            A, B, C, D, Ts=self.Ts, output_names=self.output_names, input_names=self.input_names,
+            indices=self.indices, alpha=self.alpha if divisors is None else None,
+            y_offset=self.y_offset, u_offset=self.u_offset, info=info, divisors=divisors,
+        )
+
+    @property
+    def n(self) -> int:
+        """Order (number of states)."""
+        return self.A.shape[0]
+
+    @property
+    def p(self) -> int:
+        """Number of outputs."""
+        return self.C.shape[0]
+
+    @property
+    def m(self) -> int:
+        """Number of inputs."""
+        return self.B.shape[1]
+
+    def __repr__(self) -> str:
+        lists = f", indices={list(self.indices)}" if self.indices else ""
+        return f"StateSpaceModel(n={self.n}, p={self.p}, m={self.m}, Ts={self.Ts:g}{lists}, stable={self.is_stable()})"
+
+    def simulate(self, u: object, x0: object | None = None) -> np.ndarray:
+        """Simulate the model (deviation variables).
+
+        Parameters
+        ----------
+        u : array_like, shape (N, m)
+            Input deviations, time along axis 0 (1-D accepted when m = 1).
+        x0 : array_like, shape (n,), optional
+            Initial state; zero by default.
+
+        Returns
+        -------
+        ndarray, shape (N, p)
+        """
+        uu = as_signal("u", u, self.m)
+        start = None
+        if x0 is not None:
+            start = np.array(x0, dtype=float).reshape(-1)
+            if start.shape != (self.n,):
+                raise DataError(f"x0 must have {self.n} entries, got {np.shape(x0)}")
+            start = start[None]
+        y = simulate_batch(self.A[None], self.B[None], self.C[None], uu, start)[0]
+        return y + uu @ self.D.T
+
+    def poles(self) -> np.ndarray:
+        """Eigenvalues of ``A`` (discrete time)."""
+        return np.linalg.eigvals(self.A)
+
+    def is_stable(self) -> bool:
+        """True when every pole lies strictly inside the unit circle."""
+        return bool(self.n == 0 or np.max(np.abs(self.poles())) < 1.0)
+
+    def markov(self, count: int) -> np.ndarray:
+        """Markov parameters ``D, C B, C A B, ...``: shape (count, p, m), entry k is h_k."""
+        out = np.empty((count, self.p, self.m))
+        out[0] = self.D
+        row = self.C
+        for k in range(1, count):
+            out[k] = row @ self.B
+            row = row @ self.A
+        return out
+
+    def warn_if_unstable(self, stacklevel: int = 2) -> None:
+        """Issue an :class:`UnstableModelWarning` if the model is unstable."""
+        if not self.is_stable():
+            radius = np.max(np.abs(self.poles()))
+            warnings.warn(
+                f"identified model (indices {list(self.indices or [])}) is unstable: "
+                f"largest pole modulus {radius:.4g}",
+                UnstableModelWarning,
+                stacklevel=stacklevel + 1,
+            )
+
+    def to_control(self):  # -> control.StateSpace
+        """Convert to a python-control ``StateSpace`` with the channel names.
+
+        Requires the optional dependency ``control`` (``pip install control``).
+        """
+        try:
+            import control
+        except ImportError as exc:  # pragma: no cover - depends on the environment
+            raise ImportError("to_control() needs python-control: pip install control") from exc
+        return control.ss(
+            self.A, self.B, self.C, self.D, self.Ts,
+            inputs=list(self.input_names), outputs=list(self.output_names),
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-serialisable description of the model."""
+        return {
+            "format": FILE_FORMAT,
+            "version": __version__,
+            "A": self.A.tolist(), "B": self.B.tolist(), "C": self.C.tolist(), "D": self.D.tolist(),
+            "Ts": self.Ts,
+            "output_names": list(self.output_names), "input_names": list(self.input_names),
+            "indices": None if self.indices is None else list(self.indices),
+            "alpha": None if self.alpha is None else self.alpha.tolist(),
+            "divisors": None if self.divisors is None else [d.tolist() for d in self.divisors],
+            "y_offset": self.y_offset.tolist(), "u_offset": self.u_offset.tolist(),
+            "info": self.info,
+        }
+
+    def save(self, path: str | Path) -> None:
+        """Write the model to a JSON file (read it back with :func:`moli.load_model`)."""
+        Path(path).write_text(json.dumps(self.to_dict(), indent=1))
+
+
+def model_from_dict(content: dict[str, Any]) -> StateSpaceModel:
+    """Rebuild a model from :meth:`StateSpaceModel.to_dict` output, checking it."""
+    if not isinstance(content, dict) or content.get("format") != FILE_FORMAT:
+        raise ModelFileError("not a moli model file (missing 'format': 'moli-model')")
+    major = str(content.get("version", "")).split(".")[0]
+    if major != __version__.split(".")[0]:
+        raise ModelFileError(
+            f"model file written by moli {content.get('version')}, which this moli "
+            f"{__version__} cannot read"
+        )
+    try:
+        return StateSpaceModel(
+            content["A"], content["B"], content["C"], content["D"], content["Ts"],
+            content["output_names"], content["input_names"], content.get("indices"),
+            content.get("alpha"), content.get("y_offset"), content.get("u_offset"),
+            content.get("info"), divisors=content.get("divisors"),
+        )
+    except KeyError as exc:
+        raise ModelFileError(f"model file lacks the field {exc}") from None
+    except DataError as exc:
+        raise ModelFileError(f"model file is inconsistent: {exc}") from None
+
+
+def load_model(path: str | Path) -> StateSpaceModel:
+    """Read a model written by :meth:`StateSpaceModel.save`.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    StateSpaceModel
+    """
+    try:
+        content = json.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise ModelFileError(f"no model file at {path}") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ModelFileError(f"{path} is not a JSON model file: {exc}") from None
+    return model_from_dict(content)

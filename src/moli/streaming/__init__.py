@@ -1,0 +1,7 @@
+"""Estimation sample by sample or chunk by chunk, in constant memory (docs/recursive.md)."""
+
+from .chunked import ChunkedEstimator
+from .filter_bank import FilterBank
+from .recursive import RecursiveMoli
+
+__all__ = ["ChunkedEstimator", "FilterBank", "RecursiveMoli"]
