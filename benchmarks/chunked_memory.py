@@ -24,7 +24,7 @@ def peak_mb() -> float:
 
 
 def in_memory_markov(y: np.ndarray, u: np.ndarray) -> np.ndarray:
-    """ALGORITHM.md section 3 solved on the whole prefix at once (zero filter state)."""
+    """docs/method.md §3 solved on the whole prefix at once (zero filter state)."""
     z = np.concatenate([y, u], axis=1)
     alphas = divisors(ALPHA, INDICES)
     thetas = []

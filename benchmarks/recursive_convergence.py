@@ -1,7 +1,7 @@
 """Samples until the recursive estimate equals the batch model (Markov parameters to 1e-6).
 
 Noise-free data from a seeded 3x3 plant with indices (2, 2, 2); the batch model is
-the whole-record least-squares solution (ALGORITHM.md section 3) on the same samples.
+the whole-record least-squares solution (docs/method.md §3) on the same samples.
 Run: python benchmarks/recursive_convergence.py
 """
 

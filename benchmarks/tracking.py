@@ -2,7 +2,7 @@
 
 A seeded 3x3 plant (indices (2, 2, 2)) runs for 20 000 samples, then its matrices
 are replaced by another seeded plant's. Every 25 samples the current model is
-simulated on a fixed validation input and compared (VAF, ALGORITHM.md section 5)
+simulated on a fixed validation input and compared (VAF, docs/method.md §5)
 with the noise-free output of the plant then running. Recovery: samples after the
 change until the mean VAF is back above TARGET and stays there.
 Run: python benchmarks/tracking.py

@@ -27,7 +27,7 @@ from moli.app.report import write_report
 
 def export_csv(data: moli.IOData, path: Path) -> None:
     """What a process historian or spreadsheet hands over: a header row and one row per sample."""
-    frame = data.to_dataframe()
+    frame = moli.to_dataframe(data)
     frame["operator"] = "shift A"
     frame.to_csv(path)
 
@@ -37,7 +37,7 @@ def main(out: Path) -> None:
     export_csv(moli.example_data(N=800, seed=1), out / "plant.csv")
     export_csv(moli.example_data(N=400, seed=2), out / "rerun.csv")
 
-    data = moli.IOData.from_csv(out / "plant.csv", ["u1", "u2", "u3"], ["y1", "y2", "y3"])
+    data = moli.read_data(out / "plant.csv", ["u1", "u2", "u3"], ["y1", "y2", "y3"])
     print("read", data)
     estimation, validation = data.split(0.6)
     result = moli.identify(estimation, validation, nmax=6)
@@ -46,7 +46,7 @@ def main(out: Path) -> None:
     print("report:", write_report(result, out / "report"))
 
     model = moli.load_model(out / "model.json")
-    rerun = moli.IOData.from_csv(out / "rerun.csv", model.input_names, model.output_names)
+    rerun = moli.read_data(out / "rerun.csv", model.input_names, model.output_names)
     check = moli.compare(model, rerun)
     for name, v, f in zip(rerun.output_names, check.vaf, check.fit):
         print(f"independent run, {name}: VAF {v:.1f} %, fit {f:.1f} %")

@@ -15,7 +15,7 @@ def random_system(n: int, p: int, m: int, rng: np.random.Generator) -> moli.Stat
 
 
 def generic_indices(n: int, p: int) -> tuple[int, ...]:
-    """ceil(n/p) for the first n mod p outputs, floor(n/p) for the rest (ALGORITHM.md §4)."""
+    """ceil(n/p) for the first n mod p outputs, floor(n/p) for the rest (docs/method.md §4)."""
     return tuple(n // p + (1 if j < n % p else 0) for j in range(p))
 
 

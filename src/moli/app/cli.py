@@ -32,6 +32,8 @@ from ..validation.comparison import X0_CHOICES, compare
 from .figures import measured_vs_simulated
 from .report import write_report
 
+__all__ = ["cli", "main", "describe", "options_from_flags"]
+
 USAGE_ERROR = 2
 INTERRUPTED = 130
 # --all-lists fits every list only for orders with at most this many lists: the count

@@ -17,6 +17,8 @@ from ..models.statespace import StateSpaceModel
 from ..method.search import PathStep
 from ..validation.comparison import Comparison
 
+__all__ = ["vaf_by_order", "measured_vs_simulated", "poles", "step_responses", "settling_samples"]
+
 PANEL_HEIGHT = 1.9  # inches per row of axes
 
 

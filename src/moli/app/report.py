@@ -16,6 +16,8 @@ from ..method.identification import IdentificationResult
 from ..method.search import PathStep
 from ..validation.comparison import compare
 
+__all__ = ["path_table", "write_report"]
+
 STYLE = """
 body { font-family: sans-serif; max-width: 60em; margin: 2em auto; color: #222; }
 table { border-collapse: collapse; font-size: 0.9em; }

@@ -10,6 +10,11 @@ import numpy as np
 from ..systems.experiment import SampledPlant
 from .lq import ControlDesignError
 
+__all__ = [
+    "Controller", "setpoint_steps", "ClosedLoopRun", "closed_loop", "StepMetrics",
+    "step_metrics",
+]
+
 
 class Controller(Protocol):
     """What :func:`closed_loop` needs: ``reset()`` and ``update(y, r) -> u`` (absolute)."""

@@ -18,6 +18,11 @@ import numpy as np
 from ..errors import MoliError
 from ..models.statespace import StateSpaceModel
 
+__all__ = [
+    "ControlDesignError", "bryson", "continuous_poles", "sector_poles", "ServoController",
+    "servo_weights", "lq_servo",
+]
+
 
 class ControlDesignError(MoliError):
     """A controller cannot be designed with the given model or settings."""

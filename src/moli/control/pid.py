@@ -10,6 +10,8 @@ import numpy as np
 from ..models.statespace import StateSpaceModel
 from .lq import ControlDesignError
 
+__all__ = ["PIDGains", "DecentralizedPID", "tune_pid", "pid_baseline"]
+
 
 @dataclass(frozen=True)
 class PIDGains:

@@ -37,6 +37,11 @@ from .daisy_catalog import DESTILL_NOISE_LEVELS, DISTILL2_STEPS, SPECS, DaisySpe
 from .iodata import IOData
 from ..errors import DataError, MoliError, OptionError
 
+__all__ = [
+    "DatasetUnavailableError", "DatasetChecksumError", "DaisyInfo", "daisy_url", "list_daisy",
+    "cache_dir", "daisy_path", "load_daisy",
+]
+
 DAISY_BASE_URL = "https://ftp.esat.kuleuven.be/pub/SISTA/data"
 """Server folder that holds ``<folder>/NAME.dat.gz`` for every DaISy set."""
 

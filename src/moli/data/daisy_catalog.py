@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+__all__ = ["DaisySpec"]
+
 DESTILL_NOISE_LEVELS = (0, 10, 20, 30)
 DISTILL2_STEPS = (1, 2, 3)
 

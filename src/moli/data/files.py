@@ -18,6 +18,8 @@ import numpy as np
 from .iodata import IOData
 from ..errors import DataError
 
+__all__ = ["from_columns", "read_data", "from_dataframe", "to_dataframe", "fingerprint"]
+
 if TYPE_CHECKING:  # pandas is optional
     import pandas as pd
 

@@ -8,6 +8,8 @@ import numpy as np
 
 from ..errors import DataError
 
+__all__ = ["as_signal", "stack_signals", "IOData"]
+
 
 def as_signal(name: str, values: object, channels: int | None = None) -> np.ndarray:
     """Copy ``values`` into a finite float array of shape (N, channels), time along axis 0.
@@ -209,27 +211,3 @@ class IOData:
         if dy.shape != (self.p,) or du.shape != (self.m,):
             raise DataError(f"offsets must have shapes ({self.p},) and ({self.m},)")
         return self._with(self._y - dy, self._u - du, self.y_offset + dy, self.u_offset + du)
-
-    @classmethod
-    def from_csv(
-        cls, path: str, inputs: Sequence[str], outputs: Sequence[str], Ts: float | None = None
-    ) -> "IOData":
-        """Read a CSV file with a header row; see :func:`moli.data.files.read_data`."""
-        from .files import read_data
-
-        return read_data(path, inputs, outputs, Ts)
-
-    @classmethod
-    def from_dataframe(
-        cls, frame: object, inputs: Sequence[str], outputs: Sequence[str], Ts: float | None = None
-    ) -> "IOData":
-        """Columns of a pandas data frame; see :func:`moli.data.files.from_dataframe`."""
-        from .files import from_dataframe
-
-        return from_dataframe(frame, inputs, outputs, Ts)
-
-    def to_dataframe(self) -> object:
-        """The record as a pandas data frame indexed by time; see :func:`moli.data.files.to_dataframe`."""
-        from .files import to_dataframe
-
-        return to_dataframe(self)

@@ -6,6 +6,8 @@ import numpy as np
 
 from ..errors import MoliError
 
+__all__ = ["SignalError", "random_binary_signal", "dwell_times"]
+
 
 class SignalError(MoliError):
     """Invalid settings for an excitation signal."""

@@ -22,6 +22,11 @@ from .filters import check_alpha, divisors
 from ..models.statespace import StateSpaceModel
 from .structure import Indices, check_indices, parameter_counts
 
+__all__ = [
+    "filtered_regressors", "solve_batch", "realize", "fit_batch", "check_sample_count",
+    "estimate",
+]
+
 # Condition numbers (of the column-scaled regressor) above this are reported:
 # beyond it the solution has lost at least 10 of its 16 significant digits.
 COND_LIMIT = 1e10

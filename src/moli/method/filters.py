@@ -25,6 +25,11 @@ import numpy as np
 from ..errors import FilterError
 from .structure import Indices
 
+__all__ = [
+    "filter_roots", "filter_polynomial", "check_alpha", "divisor", "divisors",
+    "filter_divisors", "filter_rows",
+]
+
 # A pair whose imaginary part is below this share of its modulus may stand for two
 # real roots: np.roots splits a double real root into a pair by about sqrt(eps) times
 # the spread of nearby roots (up to ~1e-2 seen on slow filters with clustered double

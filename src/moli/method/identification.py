@@ -20,6 +20,8 @@ from .refinement import refine as refine_model
 from .search import PathStep, StructureSearch, greedy_path, select_order
 from .tuning import default_omega
 
+__all__ = ["IdentificationResult", "identify"]
+
 # Share of the record held out for the order rule when no validation data are given.
 HOLDOUT_FRACTION = 0.3
 # "auto" stability bound: a mode whose time constant exceeds a tenth of the estimation

@@ -19,6 +19,8 @@ from .regression import FEEDTHROUGH_CHOICES
 from .scoring import MAX_TREND_DEGREE
 from .tuning import TUNING_METHODS
 
+__all__ = ["IdentifyOptions"]
+
 REFINE_CHOICES = ("none", "selected", "path")
 PRESETS = ("improved", "bounded", "paper")
 

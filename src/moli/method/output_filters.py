@@ -1,7 +1,7 @@
 """Per-output filters: after the shared filter search, each output's cutoff on its own.
 
 Output ``j``'s least-squares problem involves only its own divisor ``alpha_j``
-(ALGORITHM.md, section 3), so the divisors need not come from one filter ``alpha``:
+(docs/method.md §3), so the divisors need not come from one filter ``alpha``:
 any monic stable ``alpha_j`` of degree ``l_j`` gives an observable observer form, and
 every output keeps its exact-recovery property. Outputs with very different speeds
 (a slow temperature next to a fast moisture reading) are then each weighted by a
@@ -19,6 +19,8 @@ import numpy as np
 
 from ..errors import OptionError
 from .scoring import FilterScorer
+
+__all__ = ["OutputFilters", "cutoff_candidates", "tune_output_cutoffs"]
 
 
 @dataclass

@@ -7,7 +7,7 @@ from it and minimizes the *simulation* error on the estimation record,
                    + ridge * sum_k d_k^2 (theta_k - theta0_k)^2,
 
 over the same parameters ``theta`` (the observer-form matrices ``D``, ``B``, the
-output coupling ``G`` of ALGORITHM.md section 4 and the feedthrough when the model
+output coupling ``G`` of docs/method.md §4 and the feedthrough when the model
 has one, with the filter ``alpha`` kept), and
 optionally the initial state ``x0`` of the estimation record, a nuisance parameter.
 ``d_k`` is the norm of the ``k``-th Jacobian column at the start, so ``ridge`` is a
@@ -25,7 +25,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-import scipy.fft
 
 from ..data.iodata import IOData
 from ..errors import DataError, OptionError
@@ -33,6 +32,8 @@ from .estimation import _filter_companion
 from .filters import divisors
 from ..models.statespace import StateSpaceModel
 from ..models.simulation import free_response, simulate_batch
+
+__all__ = ["ObserverForm", "observer_form", "RefineResult", "refine"]
 
 # Poles may move up to this radius: 1 - 1e-3 keeps time constants below 1000 samples,
 # far beyond any record the method is used on, while leaving round-off room.
@@ -123,6 +124,8 @@ def _sensitivities(A: np.ndarray, C: np.ndarray, signals: np.ndarray) -> tuple[n
 
     Returns ``S`` of shape (N, p, n, k) and the free responses ``C A^t e_a``, (N, p, n).
     """
+    import scipy.fft  # slow to import: only when refining
+
     N = signals.shape[0]
     free = free_response(A, C, N)                     # (N, p, n): C A^t
     # any length from 2N - 1 on keeps the circular convolution's first N samples

@@ -21,6 +21,8 @@ from .estimation import solve_batch
 from .filters import _needs_real, filter_rows
 from .structure import Indices
 
+__all__ = ["RegressionCache"]
+
 FEEDTHROUGH_CHOICES = (False, True, "auto")
 # Significance level of the "auto" feedthrough test. Strict, because the equation
 # errors are coloured and the nominal F distribution then overstates significance.
@@ -36,7 +38,7 @@ class RegressionCache:
 
     For a filter ``alpha`` of degree ``nbar`` the observer state ``xi`` holds every
     signal filtered by ``q^t/alpha``, ``t < nbar``; each output's regressors are ``xi``
-    times a fixed matrix built from ``alpha/alpha_j`` (ALGORITHM.md, section 3), and
+    times a fixed matrix built from ``alpha/alpha_j`` (docs/method.md §3), and
     its earlier outputs are columns of ``y``. So one QR of ``X = [xi, y]`` (triangular
     factor only) serves every output and every list that uses the same ``alpha``: each
     least-squares problem ``min |X (T theta - e)|`` becomes the small problem

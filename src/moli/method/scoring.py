@@ -22,6 +22,8 @@ from .filters import filter_divisors
 from .regression import RegressionCache
 from .structure import Indices
 
+__all__ = ["check_trend_degree", "error_ratio", "FilterScorer", "score_lists"]
+
 # Highest degree of the error trend J may ignore: beyond a few terms the polynomials
 # reach the plant's own frequencies on short records.
 MAX_TREND_DEGREE = 5

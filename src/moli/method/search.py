@@ -19,6 +19,8 @@ from .scoring import FilterScorer
 from .tuning import tune_filters
 from ..validation.comparison import compare
 
+__all__ = ["PathStep", "StructureSearch", "greedy_path", "exhaustive", "select_order"]
+
 
 @dataclass
 class PathStep:

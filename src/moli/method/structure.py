@@ -9,6 +9,8 @@ import numpy as np
 
 from ..errors import StructureError
 
+__all__ = ["check_indices", "compositions", "raised", "parameter_counts"]
+
 Indices = tuple[int, ...]
 
 

@@ -14,6 +14,11 @@ import numpy as np
 from ..errors import OptionError
 from .scoring import FilterScorer, score_lists
 
+__all__ = [
+    "default_omega", "grid", "check_omega", "barycenter", "TuningResult", "tune_filter",
+    "tune_filters",
+]
+
 TUNING_METHODS = ("grid", "random", "zoom")
 # The paper's weight: mu = 40 / min J, i.e. a candidate whose J is 10 % above the
 # best weighs exp(-4) ~ 2 % of it.

@@ -14,6 +14,8 @@ import math
 import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
+__all__ = ["simulate_batch", "free_response"]
+
 
 def _block_length(N: int) -> int:
     # The Toeplitz product costs N L per model and the loops L + N / L steps. The

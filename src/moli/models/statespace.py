@@ -14,6 +14,8 @@ from ..data.iodata import as_signal
 from ..errors import DataError, ModelFileError, UnstableModelWarning
 from .simulation import simulate_batch
 
+__all__ = ["StateSpaceModel", "model_from_dict", "load_model"]
+
 FILE_FORMAT = "moli-model"
 
 

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+__all__ = ["CausalRegressors"]
+
 
 class CausalRegressors:
     """Streaming regressors for a bank of filters of one degree.

@@ -22,6 +22,8 @@ from ..method.estimation import COND_LIMIT, check_sample_count, realize, solve_b
 from ..models.statespace import StateSpaceModel
 from .recursive import FixedFilterEstimator
 
+__all__ = ["ChunkedEstimator"]
+
 
 class ChunkedEstimator(FixedFilterEstimator):
     """Whole-record batch estimate accumulated over chunks of any sizes.

@@ -3,7 +3,7 @@
 All candidates are estimated together (:class:`moli.streaming.recursive.BankRls` batches the
 least squares across the bank). Every ``retune_every`` samples each candidate's
 current model is simulated from the zero state on the latest ``window`` samples
-and scored with the paper's ``J`` (ALGORITHM.md section 5), leaving out the first
+and scored with the paper's ``J`` (docs/method.md §5), leaving out the first
 ``burn_in`` samples where the zero initial state dominates. Slot 0 of the bank is
 the barycenter candidate: it moves to the barycenter (paper eq. 5) of the scored
 bank and is re-estimated from the prior on the window, so it starts current; the
@@ -24,6 +24,8 @@ from .recursive import BankRls, check_options
 from ..models.simulation import simulate_batch
 from ..method.structure import check_indices
 from ..method.tuning import barycenter, check_omega
+
+__all__ = ["FilterBank"]
 
 
 class FilterBank:

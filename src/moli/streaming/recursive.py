@@ -1,7 +1,7 @@
 """Recursive MOLI estimation: sample by sample or chunk by chunk, constant memory.
 
 Each output's parameters are estimated by recursive least squares on the causal
-MOLI regressors (ALGORITHM.md section 6), ``P_0 = p0 I``, ``theta_0 = 0``,
+MOLI regressors (docs/method.md §6), ``P_0 = p0 I``, ``theta_0 = 0``,
 output noise variance ``R2`` and an optional forgetting factor. Like
 :func:`moli.estimate`, the first ``max(indices)`` samples only charge the
 filters. The state-space model comes from :func:`moli.method.estimation.realize`.
@@ -24,6 +24,11 @@ from ..method.filters import check_alpha, divisors
 from ..models.statespace import StateSpaceModel
 from .sqrt_rls import SquareRootRls
 from ..method.structure import Indices, check_indices
+
+__all__ = [
+    "check_options", "solve_triangular_batch", "BankRls", "FixedFilterEstimator",
+    "RecursiveMoli",
+]
 
 # update_many works through long records in pieces of this many samples, so the
 # regressor arrays (candidates x piece x columns) stay a few megabytes.

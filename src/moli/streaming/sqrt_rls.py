@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
+__all__ = ["SquareRootRls"]
+
 # Rows absorbed per QR: large enough to amortise the per-call overhead, small
 # enough that the stacked (K + BLOCK) x K arrays stay in cache.
 BLOCK = 512

@@ -2,8 +2,9 @@
 
 from .experiment import SampledPlant, experiment
 from .plant import example_data, example_plant
-from .twin_rotor import (
-    RigLimitWarning, TwinRotor, TwinRotorError, TwinRotorParameters, identification_experiment,
+from .twin_rotor import TwinRotor, identification_experiment
+from .twin_rotor_parameters import (
+    RigLimitWarning, TwinRotorError, TwinRotorParameters,
 )
 
 __all__ = [

@@ -10,6 +10,8 @@ from ..data.iodata import IOData
 from ..errors import DataError
 from ..models.statespace import StateSpaceModel
 
+__all__ = ["SampledPlant", "experiment"]
+
 
 class SampledPlant(Protocol):
     """What :func:`experiment` needs from a nonlinear simulated plant.

@@ -7,6 +7,8 @@ import numpy as np
 from ..data.iodata import IOData
 from ..models.statespace import StateSpaceModel
 
+__all__ = ["example_plant", "example_data"]
+
 
 def example_plant() -> StateSpaceModel:
     """A fixed stable 3-input, 3-output plant of order 6 (Ts = 1).

@@ -12,6 +12,8 @@ from .metrics import nrmse_fit, vaf
 from ..models.statespace import StateSpaceModel
 from ..models.simulation import free_response
 
+__all__ = ["Comparison", "estimate_initial_state", "compare"]
+
 X0_CHOICES = ("zero", "estimate")
 
 

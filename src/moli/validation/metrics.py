@@ -13,6 +13,8 @@ import numpy as np
 
 from ..errors import DataError
 
+__all__ = ["error_ratio", "vaf", "cost_j", "nrmse_fit"]
+
 
 def _pair(y: object, yhat: object) -> tuple[np.ndarray, np.ndarray]:
     a = np.array(y, dtype=float, ndmin=1)

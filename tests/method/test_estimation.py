@@ -42,7 +42,7 @@ def test_exact_recovery_of_markov_parameters(n, p, m):
 
 
 def _observer_form(theta, alphas, indices, m):
-    """ALGORITHM.md §4 written out entry by entry: A_D, C_D, D, B, G."""
+    """docs/method.md §4 written out entry by entry: A_D, C_D, D, B, G."""
     p = len(indices)
     n = sum(indices)
     A_D, C_D = np.zeros((n, n)), np.zeros((p, n))

@@ -44,7 +44,7 @@ def test_retune_scores_window_and_moves_slot_zero_to_the_barycenter():
     bank.update_many(y[:399], u[:399])
     assert np.all(np.isnan(bank.costs))  # no scoring before retune_every samples
     bank.update(y[399], u[399])
-    # Independent J (ALGORITHM.md 5) of the models scored: slots 1.. are unchanged by the
+    # Independent J (docs/method.md §5) of the models scored: slots 1.. are unchanged by the
     # retune; slot 0's scored model is rebuilt alone at its starting place.
     A, B, C = bank._bank.matrices()
     first = alone(start[0], y, u)

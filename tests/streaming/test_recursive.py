@@ -41,7 +41,7 @@ def true_markov(count):
 
 
 def batch_thetas(y, u, indices=INDICES, alpha=ALPHA):
-    """Whole-record least squares of ALGORITHM.md section 3, by lstsq (independent of moli's solver)."""
+    """Whole-record least squares of docs/method.md §3, by lstsq (independent of moli's solver)."""
     z = np.concatenate([y, u], axis=1)
     skip = max(indices)
     thetas = []

@@ -16,7 +16,7 @@ from moli.data import daisy as datasets, daisy_catalog
 from moli.data import IOData
 from moli.errors import DataError, MoliError, OptionError
 
-REPO_ROOT = Path(__file__).resolve().parents[1]
+REPO_ROOT = Path(__file__).resolve().parents[2]
 
 
 def _shared_dir() -> Path:

@@ -36,7 +36,7 @@ def _tuned(z: np.ndarray, feedthrough=False):
 
 def test_divisors_of_unrelated_filters_recover_the_plant_exactly():
     # Output j's regression involves only its own divisor, so divisors that share no
-    # root still give the exact model on noise-free data (ALGORITHM.md, section 4's check)
+    # root still give the exact model on noise-free data (docs/method.md §4's check)
     rng = np.random.default_rng(0)
     A = np.array([[0.9, 0.2, 0.0], [-0.2, 0.9, 0.1], [0.0, 0.0, 0.6]])
     B, C = rng.standard_normal((3, 2)), rng.standard_normal((2, 3))

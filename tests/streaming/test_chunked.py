@@ -21,7 +21,7 @@ def record(N, noise, seed=3):
 
 
 def whole_record_markov(y, u):
-    """ALGORITHM.md section 3 on the whole record with lstsq, realized by moli's realize."""
+    """docs/method.md §3 on the whole record with lstsq, realized by moli's realize."""
     z = np.concatenate([y, u], axis=1)
     alphas = divisors(ALPHA, INDICES)
     thetas = []
@@ -51,7 +51,7 @@ def test_noise_free_gives_the_true_markov_parameters():
     truth = np.array([C @ np.linalg.matrix_power(A, k) @ B for k in range(20)])
     with pytest.warns(moli.IllConditionedWarning):  # exact data: the g_ji are not unique
         model = est.model()
-    # Exact fit (residuals at round-off): Markov parameters to round-off, cf. ALGORITHM.md 4.
+    # Exact fit (residuals at round-off): Markov parameters to round-off, cf. docs/method.md §4.
     assert np.max(np.abs(model.markov(21)[1:] - truth)) < 1e-9
 
 

@@ -36,7 +36,7 @@ def record() -> moli.IOData:
 @pytest.fixture
 def csv_file(tmp_path: Path, record: moli.IOData) -> Path:
     path = tmp_path / "plant.csv"
-    record.to_dataframe().to_csv(path)
+    moli.to_dataframe(record).to_csv(path)
     return path
 
 
@@ -166,6 +166,44 @@ def test_model_file_with_inconsistent_matrices(tmp_path, csv_file):
     content["version"] = "99.0"
     path.write_text(json.dumps(content))
     assert_clean_error(run("validate", str(path), str(csv_file)), "cannot read")
+
+
+def test_fit_options_file_and_a_saved_model_rerun_the_same_search(tmp_path, csv_file, record):
+    opts = moli.IdentifyOptions.bounded(nmax=NMAX, seed=2)
+    options_file = tmp_path / "options.json"
+    options_file.write_text(json.dumps(opts.to_dict()))
+    first, second = tmp_path / "first.json", tmp_path / "second.json"
+    for source, out in ((options_file, first), (first, second)):  # the second reads the first model
+        done = run("fit", str(csv_file), "--inputs", INPUTS, "--outputs", OUTPUTS,
+                   "--options", str(source), "--out", str(out))
+        assert done.exit_code == 0, done.output + done.stderr
+    est, val = record.split(0.7)
+    expected = moli.identify(est, val, opts).model
+    for out in (first, second):
+        saved = moli.load_model(out)
+        np.testing.assert_array_equal(saved.A, expected.A)
+        assert moli.IdentifyOptions.from_dict(saved.info["options"]) == opts
+    # a flag beside the file replaces that one field
+    done = run("fit", str(csv_file), "--inputs", INPUTS, "--outputs", OUTPUTS,
+               "--options", str(options_file), "--nmax", "3", "--out", str(tmp_path / "third.json"))
+    assert done.exit_code == 0, done.stderr
+    assert moli.load_model(tmp_path / "third.json").info["options"] == opts.replace(nmax=3).to_dict()
+
+
+@pytest.mark.parametrize(
+    "content, extra, message",
+    [
+        ({"order_tolerence": 0.5}, [], "did you mean 'order_tolerance'"),
+        ({"trend_degree": "2"}, [], "IdentifyOptions.trend_degree must be"),
+        ("not json", [], "is not a JSON file"),
+        ({}, ["--preset", "paper"], "either --options FILE or --preset"),
+    ],
+)
+def test_fit_bad_options_file(tmp_path, csv_file, content, extra, message):
+    path = tmp_path / "options.json"
+    path.write_text(content if isinstance(content, str) else json.dumps(content))
+    result = run("fit", str(csv_file), "--inputs", INPUTS, "--outputs", OUTPUTS, "--options", str(path), *extra)
+    assert_clean_error(result, message)
 
 
 @pytest.mark.parametrize(

@@ -118,9 +118,9 @@ def test_parquet_without_pyarrow_says_what_to_install(tmp_path):
 def test_dataframe_round_trip_through_iodata_methods():
     pytest.importorskip("pandas")
     original = moli.IOData(Y, U, TS, output_names=["a", "b"])
-    frame = original.to_dataframe()
+    frame = moli.to_dataframe(original)
     assert list(frame.columns) == ["a", "b", "u1", "u2"]
-    back = moli.IOData.from_dataframe(frame, ["u1", "u2"], ["a", "b"])
+    back = moli.from_dataframe(frame, ["u1", "u2"], ["a", "b"])
     np.testing.assert_array_equal(back.y, Y)
     np.testing.assert_array_equal(back.u, U)
     assert back.Ts == pytest.approx(TS, rel=1e-12)
@@ -128,9 +128,9 @@ def test_dataframe_round_trip_through_iodata_methods():
     assert original.y[0, 0] == Y[0, 0]
 
 
-def test_from_csv_method_does_not_touch_caller_lists(tmp_path):
+def test_read_data_does_not_touch_caller_lists(tmp_path):
     inputs = ["u1", "u2"]
-    data = moli.IOData.from_csv(write_csv(tmp_path / "rec.csv"), inputs, ["y1"])
+    data = moli.read_data(write_csv(tmp_path / "rec.csv"), inputs, ["y1"])
     assert inputs == ["u1", "u2"] and data.m == 2
 
 

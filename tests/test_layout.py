@@ -1,0 +1,135 @@
+"""The package keeps the shape docs/architecture.md draws.
+
+Read from the source text (no import): every ``from .x import`` and ``from ..x import``,
+at module level or inside a function, is an edge of the import graph.
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+from pathlib import Path
+
+import pytest
+
+import moli
+
+PACKAGE = Path(moli.__file__).resolve().parent
+REPO = PACKAGE.parents[1]
+# Pipeline order: a module may import its own layer and the layers before it.
+LAYERS = ("errors", "data", "models", "validation", "method", "streaming", "systems", "control", "app")
+# About a screen or two per module; a little slack over the 400-line guide.
+MAX_LINES = 420
+
+
+def _modules() -> dict[str, Path]:
+    return {
+        ".".join(path.relative_to(PACKAGE.parent).with_suffix("").parts): path
+        for path in PACKAGE.rglob("*.py")
+    }
+
+
+def _imports(name: str, path: Path) -> set[str]:
+    """The moli modules ``name`` imports (package ``__init__`` imports resolve to the package)."""
+    package = name.split(".") if path.name == "__init__.py" else name.split(".")[:-1]
+    found = set()
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom) and node.level:
+            base = package[: len(package) - node.level + 1]
+            target = ".".join(base + ([node.module] if node.module else []))
+            found |= {f"{target}.{alias.name}" for alias in node.names} | {target}
+        elif isinstance(node, ast.ImportFrom) and (node.module or "").startswith("moli"):
+            found.add(node.module)
+    return found
+
+
+def _graph() -> dict[str, set[str]]:
+    modules = _modules()
+    known = {name.removesuffix(".__init__") for name in modules}
+    return {
+        name.removesuffix(".__init__"): {t for t in _imports(name, path) if t in known}
+        for name, path in modules.items()
+    }
+
+
+def _layer(module: str) -> int | None:
+    parts = module.split(".")
+    return LAYERS.index(parts[1]) if len(parts) > 1 and parts[1] in LAYERS else None
+
+
+def test_no_import_cycle():
+    graph = _graph()
+    state: dict[str, int] = {}
+
+    def visit(node: str, trail: list[str]) -> None:
+        state[node] = 1
+        for nxt in sorted(graph.get(node, ())):
+            if nxt == node or nxt == "moli":
+                continue
+            if state.get(nxt) == 1:
+                pytest.fail("import cycle: " + " -> ".join(trail[trail.index(nxt):] + [nxt]))
+            if nxt not in state:
+                visit(nxt, trail + [nxt])
+        state[node] = 2
+
+    for start in sorted(graph):
+        if start not in state:
+            visit(start, [start])
+
+
+def test_no_module_imports_up_the_pipeline():
+    wrong = [
+        f"{src} imports {dst}"
+        for src, targets in _graph().items()
+        for dst in targets
+        if _layer(src) is not None and _layer(dst) is not None and _layer(dst) > _layer(src)
+    ]
+    assert not wrong, "\n".join(wrong)
+
+
+def test_the_cycle_check_can_fail():
+    # the checks above would pass on an empty graph: make sure they read real edges
+    graph = _graph()
+    assert "moli.data.iodata" in graph["moli.method.estimation"]
+    assert _layer("moli.app.cli") > _layer("moli.method.identification")
+
+
+def test_modules_stay_small():
+    sizes = {name: len(path.read_text().splitlines()) for name, path in _modules().items()}
+    assert {n: s for n, s in sizes.items() if s > MAX_LINES} == {}
+
+
+def test_public_modules_declare_all():
+    lacking = [
+        name for name, path in _modules().items()
+        if not any(part.startswith("_") and part != "__init__" for part in name.split("."))
+        and "__all__" not in path.read_text()
+    ]
+    assert lacking == []
+
+
+def _documented() -> set[str]:
+    text = (REPO / "docs" / "api.md").read_text()
+    return set(re.findall(r"^\| `(?:moli\.)?([\w.]+)` \|", text, flags=re.M))
+
+
+def _public() -> set[str]:
+    names = {n for n in moli.__all__ if n != "__version__"}
+    for sub in moli._SUBPACKAGES:
+        module = getattr(moli, sub)
+        names |= {f"{sub}.{n}" for n in module.__all__}
+    return names
+
+
+def test_api_page_lists_exactly_the_public_api():
+    documented, public = _documented(), _public()
+    assert sorted(public - documented) == [], "public names missing from docs/api.md"
+    assert sorted(documented - public) == [], "docs/api.md lists names that are not public"
+
+
+def test_every_public_name_resolves():
+    for name in _public():
+        obj = moli
+        for part in name.split("."):
+            obj = getattr(obj, part)
+        assert obj is not None
