@@ -18,15 +18,15 @@ from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
 from .errors import (
-    DataError, FilterError, IllConditionedWarning, ModelFileError, MoliError, OptionError,
-    StructureError, UnstableModelWarning,
+    DataError, DataQualityWarning, FilterError, IllConditionedWarning, ModelFileError, MoliError,
+    OptionError, OrderBoundWarning, StructureError, UnstableModelWarning,
 )
 
 # public name -> the subpackage that defines it
 _HOMES = {
     "IOData": "data", "read_data": "data", "from_dataframe": "data", "to_dataframe": "data", "load_daisy": "data", "list_daisy": "data",
     "DatasetChecksumError": "data", "DatasetUnavailableError": "data",
-    "random_binary_signal": "data",
+    "random_binary_signal": "data", "check_data": "data",
     "StateSpaceModel": "models", "load_model": "models",
     "Comparison": "validation", "compare": "validation", "cost_j": "validation",
     "nrmse_fit": "validation", "vaf": "validation",
@@ -40,7 +40,8 @@ _SUBPACKAGES = ("data", "models", "validation", "method", "streaming", "systems"
 
 __all__ = [
     "__version__", "MoliError", "DataError", "FilterError", "IllConditionedWarning",
-    "ModelFileError", "OptionError", "StructureError", "UnstableModelWarning",
+    "ModelFileError", "OptionError", "StructureError", "UnstableModelWarning", "DataQualityWarning",
+    "OrderBoundWarning",
     *_HOMES, *_SUBPACKAGES,
 ]
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 __all__ = [
     "MoliError", "DataError", "StructureError", "FilterError", "OptionError", "ModelFileError",
-    "UnstableModelWarning", "IllConditionedWarning",
+    "UnstableModelWarning", "IllConditionedWarning", "DataQualityWarning", "OrderBoundWarning",
 ]
 
 
@@ -43,3 +43,11 @@ class UnstableModelWarning(UserWarning):
 class IllConditionedWarning(UserWarning):
     """A least-squares problem is rank deficient or badly conditioned."""
 
+
+
+class DataQualityWarning(UserWarning):
+    """A record has a flaw that can make its model unreliable (see moli.data.check_data)."""
+
+
+class OrderBoundWarning(UserWarning):
+    """The selected order is the largest the structure search was allowed to reach."""

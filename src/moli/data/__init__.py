@@ -6,10 +6,12 @@ from .daisy import (
 )
 from .files import fingerprint, from_dataframe, read_data, to_dataframe
 from .iodata import IOData
+from .quality import QualityIssue, check_data, screen
 from .signals import SignalError, random_binary_signal
 
 __all__ = [
     "IOData", "read_data", "from_dataframe", "to_dataframe", "fingerprint",
     "DaisyInfo", "DatasetChecksumError", "DatasetUnavailableError", "daisy_path", "daisy_url",
-    "list_daisy", "load_daisy", "SignalError", "random_binary_signal",
+    "list_daisy", "load_daisy", "SignalError", "random_binary_signal", "QualityIssue", "check_data",
+    "screen",
 ]

@@ -230,13 +230,18 @@ def fit_batch(
     return A, B, C, cond
 
 
-def check_sample_count(N: int, indices: Indices, m: int) -> None:
-    """Raise :class:`DataError` unless each output's regression has more rows than unknowns."""
-    need = int(parameter_counts(indices, m).max()) + max(indices) + 1
+def check_sample_count(N: int, indices: Indices, m: int, feedthrough: bool = False) -> None:
+    """Raise :class:`DataError` unless each output's regression has more rows than unknowns.
+
+    ``feedthrough``: the ``m`` current inputs join every output's regressors.
+    """
+    need = int(parameter_counts(indices, m).max()) + (m if feedthrough else 0) + max(indices) + 1
     if N < need:
         raise DataError(
-            f"too few samples: the list {list(indices)} with {m} inputs needs at least "
-            f"{need} samples ({need - max(indices)} rows after the filter transient), got {N}"
+            f"too few samples: the list {list(indices)} with {m} inputs"
+            + (" and a feedthrough" if feedthrough else "")
+            + f" needs at least {need} samples ({need - max(indices)} rows after the filter "
+            f"transient), got {N}"
         )
 
 

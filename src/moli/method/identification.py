@@ -10,7 +10,8 @@ from typing import Any, Callable
 import numpy as np
 
 from ..data.iodata import IOData
-from ..errors import DataError, OptionError
+from ..data.quality import screen
+from ..errors import DataError, OptionError, OrderBoundWarning
 from ..models.statespace import StateSpaceModel
 from ..validation.comparison import compare
 from .estimation import check_sample_count
@@ -199,7 +200,8 @@ def identify(
         estimation, validation, grid, opts.tuning, opts.iterations, opts.s, opts.seed, opts.x0,
         opts.criterion_x0, opts.feedthrough, radius, opts.trend_degree, opts.output_filters,
     )
-    check_sample_count(estimation.N, (1,) * p, estimation.m)
+    check_sample_count(estimation.N, (1,) * p, estimation.m, opts.feedthrough is not False)
+    screen(estimation, nmax, stacklevel=2)
     start = time.perf_counter()
     path: list[PathStep] = []
     interrupted = False
@@ -236,6 +238,12 @@ def identify(
     model = path[selected].model
     model.info["options"] = opts.to_dict()
     model.warn_if_unstable(stacklevel=2)
+    if path[selected].order >= nmax and not interrupted:
+        warnings.warn(
+            f"the selected order {path[selected].order} is the search's bound nmax = {nmax}: a "
+            f"higher order may fit better; raise it with nmax=... (moli fit --nmax)",
+            OrderBoundWarning, stacklevel=2,
+        )
     return IdentificationResult(
         model=model, path=path, selected_index=selected, estimation=estimation,
         validation=validation, validation_source=source, options=opts, nmax=nmax, omega=grid,

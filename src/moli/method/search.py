@@ -130,7 +130,8 @@ class StructureSearch:
     def feasible(self, indices: Indices) -> bool:
         """Whether the estimation record has enough samples for this list."""
         try:
-            check_sample_count(self.estimation.N, indices, self.estimation.m)
+            check_sample_count(self.estimation.N, indices, self.estimation.m,
+                               self._regressions.feedthrough is not False)
         except DataError:
             return False
         return True

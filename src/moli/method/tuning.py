@@ -31,7 +31,7 @@ PAPER_WCS_PER_TS = tuple(0.02 * np.pi * 10 ** (0.25 * k) for k in range(6))
 def default_omega(Ts: float = 1.0) -> np.ndarray:
     """The paper's 18-point evaporator grid with frequencies scaled to ``Ts``.
 
-    Cutoffs span 0.02*pi/Ts to 0.355*pi/Ts (1 % to 18 % of the Nyquist frequency,
+    Cutoffs span 0.02*pi/Ts to 0.355*pi/Ts (1 % to 18 % of the sampling frequency,
     log-spaced), dampings 0.6, 0.7, 1.1: the range holds the dominant dynamics of
     plants sampled 5 to 50 times per time constant.
 
