@@ -101,3 +101,28 @@ def test_unstable_plant_warns_and_does_not_crash():
         result = moli.identify(moli.IOData(y, u), nmax=3, tuning="grid", center=False)
     assert len(result.path) == 3
     assert any(issubclass(w.category, moli.UnstableModelWarning) for w in caught)
+
+
+def test_paired_order_rule_reaches_the_true_order_on_long_records():
+    # 3x3 plant of order 6 with 10 % output noise: on a long validation record the
+    # paired standard error is small, so the rule keeps the order the data support;
+    # on a short one it settles lower, never above the best model's order
+    long_est, long_val = moli.example_data(N=6000, seed=11).split(3000)
+    long = moli.identify(long_est, long_val, nmax=8, order_rule="paired")
+    best = max(range(len(long.path)), key=lambda i: long.path[i].mean_vaf)
+    assert long.selected.order >= 6 and long.selected.order <= long.path[best].order
+    short_est, short_val = moli.example_data(N=300, seed=11).split(200)
+    short = moli.identify(short_est, short_val, nmax=8, order_rule="paired")
+    best = max(range(len(short.path)), key=lambda i: short.path[i].mean_vaf)
+    assert short.selected.order <= short.path[best].order
+
+
+def test_paired_order_rule_is_the_best_model_when_nothing_ties():
+    from moli.method.search import select_order_paired
+
+    est, val = moli.example_data(N=800, seed=3).split(500)
+    result = moli.identify(est, val, nmax=6)
+    val_c = val.remove_means(result.estimation.y_offset, result.estimation.u_offset)
+    chosen = select_order_paired(result.path, val_c, z=0.0)  # no tolerance: the best stable model
+    stable = [i for i, st in enumerate(result.path) if st.stable]
+    assert chosen == max(stable, key=lambda i: result.path[i].mean_vaf)

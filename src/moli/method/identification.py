@@ -18,7 +18,7 @@ from .estimation import check_sample_count
 from .options import IdentifyOptions
 from .refinement import MAX_RADIUS
 from .refinement import refine as refine_model
-from .search import PathStep, StructureSearch, greedy_path, select_order
+from .search import PathStep, StructureSearch, greedy_path, select_order, select_order_paired
 from .tuning import default_omega
 
 __all__ = ["IdentificationResult", "identify"]
@@ -106,10 +106,12 @@ class IdentificationResult:
                 + f"{st.mean_vaf:>10.2f}{st.eta[0]:>9.4g}{st.eta[1]:>7.3f}{str(st.stable):>8}"
                 + f"{st.seconds:>8.3f}{mark}"
             )
+        rule = (f"lowest order within {opts.order_tolerance:g} point of the best mean validation VAF"
+                if opts.order_rule == "tolerance" else
+                "lowest order within one paired standard error of the best validation error")
         lines.append(
             f"selected: indices {list(self.selected.indices)} (n = {self.selected.order}), "
-            f"lowest order within {opts.order_tolerance:g} point of the best mean "
-            f"validation VAF; total {self.seconds:.2f} s"
+            f"{rule}; total {self.seconds:.2f} s"
             + (" (interrupted: partial path)" if self.interrupted else "")
         )
         if self.selected.output_etas is not None:
@@ -232,7 +234,10 @@ def identify(
 
     if opts.refine == "path" and not interrupted:
         path[:] = [refined(st) for st in path]
-    selected = select_order(path, opts.order_tolerance)
+    if opts.order_rule == "paired":
+        selected = select_order_paired(path, validation, opts.x0)
+    else:
+        selected = select_order(path, opts.order_tolerance)
     if opts.refine == "selected":
         path[selected] = refined(path[selected])
     model = path[selected].model

@@ -22,6 +22,7 @@ from .tuning import TUNING_METHODS
 __all__ = ["IdentifyOptions"]
 
 REFINE_CHOICES = ("none", "selected", "path")
+ORDER_RULES = ("tolerance", "paired")
 PRESETS = ("improved", "bounded", "paper")
 
 
@@ -92,8 +93,13 @@ class IdentifyOptions:
     ----------
     nmax : int, optional
         Largest McMillan degree on the greedy path; None: ``max(10, p + 4)``.
+    order_rule : {"tolerance", "paired"}, default "tolerance"
+        How the order is picked on the validation record: the lowest order within
+        ``order_tolerance`` points of the best mean VAF, or the lowest order whose
+        validation error is within one paired standard error of the best model's
+        (:func:`moli.method.search.select_order_paired`).
     order_tolerance : float, default 1.0
-        Order rule: lowest order within this many points of the best mean validation VAF.
+        Points of mean validation VAF of the "tolerance" rule.
     omega : sequence of (wc, zeta), optional
         Filter candidates, wc in rad per time unit of ``Ts``; None: the paper's grid
         scaled to ``Ts`` (:func:`moli.method.tuning.default_omega`).
@@ -143,6 +149,7 @@ class IdentifyOptions:
     """
 
     nmax: int | None = None
+    order_rule: str = "tolerance"
     order_tolerance: float = 1.0
     omega: tuple[tuple[float, float], ...] | None = None
     tuning: str = "grid"
@@ -171,6 +178,7 @@ class IdentifyOptions:
             if isinstance(self.refine, bool) else self.refine
         checked = {
             "nmax": None if self.nmax is None else _integer("nmax", self.nmax, 1),
+            "order_rule": _choice("order_rule", self.order_rule, ORDER_RULES),
             "order_tolerance": _number("order_tolerance", self.order_tolerance,
                                        "a number >= 0 (points of VAF)", lambda t: t >= 0),
             "omega": _omega(self.omega),

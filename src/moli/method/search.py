@@ -19,7 +19,13 @@ from .scoring import FilterScorer
 from .tuning import tune_filters
 from ..validation.comparison import compare
 
-__all__ = ["PathStep", "StructureSearch", "greedy_path", "exhaustive", "select_order"]
+__all__ = ["PathStep", "StructureSearch", "greedy_path", "exhaustive", "select_order", "select_order_paired"]
+
+
+# Batches of the paired order rule: enough for a standard error, each long enough
+# (tens of samples on short records) to hold the errors' serial correlation.
+PAIRED_BATCHES = 10
+PAIRED_Z = 1.0
 
 
 @dataclass
@@ -264,3 +270,52 @@ def select_order(path: list[PathStep], tolerance: float = 1.0) -> int:
     eligible = [i for i, st in enumerate(path) if st.stable] or list(range(len(path)))
     best = max(path[i].mean_vaf for i in eligible)
     return min(i for i in eligible if path[i].mean_vaf >= best - tolerance)
+
+
+def select_order_paired(path: list[PathStep], validation: IOData, x0: str = "zero",
+                        z: float = PAIRED_Z) -> int:
+    """Position in ``path`` of the lowest order not significantly worse than the best.
+
+    The one-standard-error rule on the validation record: each model's mean VAF
+    differs from the best model's by a sum over samples of squared-error differences
+    (same samples, so the comparison is paired); its standard error comes from
+    :data:`PAIRED_BATCHES` contiguous batch sums, which keeps the serial correlation of
+    simulation errors. The lowest order within ``z`` standard errors of the best is
+    kept. Long records shrink the standard error, so the rule keeps more of the
+    accuracy there; short ones favour the simpler model. Only stable models are
+    eligible when the path has any.
+
+    Parameters
+    ----------
+    path : list of PathStep
+    validation : IOData
+        The record the path's VAFs were computed on (centred like the models).
+    x0 : {"zero", "estimate"}
+        Initial state of the validation simulations.
+    z : float, default 1.0
+        Standard errors of tolerance.
+
+    Returns
+    -------
+    int
+    """
+    eligible = [i for i, st in enumerate(path) if st.stable] or list(range(len(path)))
+    best = max(eligible, key=lambda i: path[i].mean_vaf)
+    y = validation.y
+    scale = 100.0 / (y.shape[1] * np.maximum(np.sum((y - y.mean(axis=0)) ** 2, axis=0), 1e-300))
+
+    def shares(i: int) -> np.ndarray:
+        error = y - compare(path[i].model, validation, x0).yhat
+        return np.nan_to_num((error**2) @ scale, nan=np.inf, posinf=np.inf)
+
+    reference = shares(best)
+    batches = np.array_split(np.arange(y.shape[0]), min(PAIRED_BATCHES, y.shape[0]))
+    for i in sorted(eligible, key=lambda i: path[i].order):
+        if i == best:
+            return i
+        sums = np.array([np.sum(shares(i)[b] - reference[b]) for b in batches])
+        worse = sums.sum()
+        spread = np.sqrt(len(sums) / max(len(sums) - 1, 1) * np.sum((sums - worse / len(sums)) ** 2))
+        if np.isfinite(worse) and worse <= z * spread:
+            return i
+    return best
