@@ -29,3 +29,48 @@ def plant_record(N: int, noise: float, seed: int) -> tuple[np.ndarray, np.ndarra
     u = rng.standard_normal((N, 3))
     y = plant.simulate(u)
     return y + noise * rng.standard_normal(y.shape), u, (plant.A, plant.B, plant.C)
+
+
+def kalman_gain(A: np.ndarray, C: np.ndarray, Q: np.ndarray, R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Steady-state Kalman gain and innovation covariance for process noise Q, measurement noise R.
+
+    The gain of a Kalman filter makes ``A - K C`` stable, so ``(A, K, C)`` is a valid
+    innovations form with a known innovation covariance.
+    """
+    from scipy.linalg import solve_discrete_are
+
+    P = solve_discrete_are(A.T, C.T, Q, R)
+    S = C @ P @ C.T + R
+    return np.linalg.solve(S, C @ P @ A.T).T, S
+
+
+def innovations_record(
+    model: moli.StateSpaceModel, K: np.ndarray, cov: np.ndarray, N: int, rng: np.random.Generator
+) -> moli.IOData:
+    """Outputs of the innovations form ``x+ = A x + B u + K e, y = C x + D u + e``.
+
+    White Gaussian inputs of unit variance; innovations ``e`` of covariance ``cov``.
+    """
+    u = rng.standard_normal((N, model.m))
+    e = rng.standard_normal((N, model.p)) @ np.linalg.cholesky(cov).T
+    full = moli.StateSpaceModel(model.A, np.hstack([model.B, K]), model.C,
+                                np.hstack([model.D, np.eye(model.p)]))
+    return moli.IOData(full.simulate(np.hstack([u, e])), u)
+
+
+def resonant_noise_system() -> tuple[moli.StateSpaceModel, np.ndarray, np.ndarray]:
+    """A 3-state, 2-output, 1-input system whose noise is dominated by a resonance.
+
+    A lightly damped pair (modulus 0.95) that the input barely drives but the process
+    noise does, and a real mode at 0.8 that carries the input: the noise is strongly
+    coloured, and a model with fewer states cannot describe it. Returns the
+    deterministic model, the Kalman gain and the innovation covariance.
+    """
+    radius, angle = 0.95, 0.6
+    A = np.array([[radius * np.cos(angle), radius * np.sin(angle), 0.0],
+                  [-radius * np.sin(angle), radius * np.cos(angle), 0.0],
+                  [0.0, 0.0, 0.8]])
+    B = np.array([[0.3], [0.0], [1.0]])
+    C = np.array([[1.0, 0.0, 1.0], [0.0, 1.0, -0.5]])
+    K, cov = kalman_gain(A, C, np.diag([0.2, 0.2, 0.01]), 0.05 * np.eye(2))
+    return moli.StateSpaceModel(A, B, C), K, cov

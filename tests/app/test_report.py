@@ -22,13 +22,20 @@ def result() -> moli.IdentificationResult:
     return moli.identify(est, val, nmax=4)
 
 
-def test_report_files_exist_and_html_embeds_every_png(tmp_path, result):
-    page = write_report(result, tmp_path / "rep").read_text()
+@pytest.fixture(scope="module")
+def written(result, tmp_path_factory) -> tuple[str, object]:
+    """The report written once (drawing its figures is most of the cost): page and folder."""
+    folder = tmp_path_factory.mktemp("rep")
+    return write_report(result, folder).read_text(), folder
+
+
+def test_report_files_exist_and_html_embeds_every_png(written, result):
+    page, folder = written
     embedded = re.findall(r'src="data:image/png;base64,([^"]+)"', page)
-    names = ["vaf_by_order", "validation", "poles", "step_responses"]
+    names = ["vaf_by_order", "validation", "poles", "step_responses", "residuals"]
     assert len(embedded) == len(names)
     for name, data in zip(names, embedded):
-        png = (tmp_path / "rep" / f"{name}.png").read_bytes()
+        png = (folder / f"{name}.png").read_bytes()
         assert png.startswith(PNG_MAGIC) and len(png) > 5000, name
         assert base64.b64decode(data) == png
     assert page.count("<tr") == len(result.path) + 1 + 7  # path table + header + model facts
@@ -75,3 +82,12 @@ def test_settling_samples_grows_with_the_slowest_pole():
     assert figures.settling_samples(slow) == int(np.ceil(5 / -np.log(0.99)))
     unstable = moli.StateSpaceModel([[1.5]], [[1.0]], [[1.0]])
     assert figures.settling_samples(unstable, cap=300) == 300
+
+
+def test_report_has_the_residual_analysis_with_one_verdict_per_output(written):
+    page = written[0]
+    section = page[page.index("<h2>Residual analysis</h2>"):]
+    assert "one-step prediction errors" in section  # identify attached a noise model
+    verdicts = re.findall(r"<li>(y\d): residuals", section)
+    assert verdicts == ["y1", "y2", "y3"]
+    assert "1-25" in section  # 200 validation samples: the default 25 lags need only 104

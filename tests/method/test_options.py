@@ -31,6 +31,7 @@ BAD = {
     "refine_ridge": ("1", -1.0),
     "center": ("yes", None),
     "x0": (None, "random"),
+    "noise_model": ("yes", None),
 }
 
 

@@ -293,6 +293,9 @@ def describe(model: StateSpaceModel) -> str:
     if model.divisors is not None:
         lines += [f"filter of output {j + 1}: {np.array2string(d, precision=4)}"
                   for j, d in enumerate(model.divisors)]
+    if model.K is not None:
+        std = ", ".join(f"{v:.4g}" for v in np.sqrt(np.diag(model.noise_cov)))
+        lines.append(f"noise model: Kalman gain K ({model.n} x {model.p}), innovation std {std}")
     lines.append(f"stable: {'yes' if model.is_stable() else 'NO'} "
                  f"(largest pole modulus {np.max(np.abs(z), initial=0.0):.4f})")
     lines.append("poles (modulus):")

@@ -15,6 +15,7 @@ from .._version import __version__
 from ..method.identification import IdentificationResult
 from ..method.search import PathStep
 from ..validation.comparison import compare
+from ..validation.residuals import SAMPLES_PER_LAG, ResidualAnalysis, residual_analysis
 
 __all__ = ["path_table", "write_report"]
 
@@ -81,6 +82,32 @@ def _model_facts(result: IdentificationResult) -> str:
     ) + "</table>"
 
 
+def residual_section(analysis: ResidualAnalysis, figure_html: str) -> str:
+    """The residual-analysis section: what was tested, one verdict per output, the figure.
+
+    Parameters
+    ----------
+    analysis : ResidualAnalysis
+    figure_html : str
+        The embedded figure of :meth:`ResidualAnalysis.plot`.
+
+    Returns
+    -------
+    str
+    """
+    kind = ("one-step prediction errors (the model's noise model)" if analysis.horizon == 1 else
+            "simulation errors (the model has no noise model)" if analysis.horizon is None else
+            f"{analysis.horizon}-step prediction errors")
+    verdicts = "".join(f"<li>{html.escape(v)}</li>" for v in analysis.verdicts)
+    return f"""<h2>Residual analysis</h2>
+<p class="note">Residuals on the validation record: {kind}. Whiteness: Ljung-Box test over lags
+1-{analysis.lags}; independence: chi-square test of the correlation with each prewhitened
+input at lags 0-{analysis.lags}. A test fails below p = {1 - analysis.confidence:.2g}.</p>
+<ul>{verdicts}</ul>
+{figure_html}
+"""
+
+
 def write_report(
     result: IdentificationResult,
     directory: str | Path,
@@ -131,11 +158,19 @@ def write_report(
         "step_responses": (figures.step_responses(model, figures.settling_samples(model)),
                            "Unit-step responses from each input to each output (deviations)."),
     }
-    sections = []
+    # at most the default 25 lags, fewer on a short validation record
+    lags = min(25, validation.N // SAMPLES_PER_LAG - 1)
+    analysis = residual_analysis(model, validation, lags=lags) if lags >= 1 else None
+    if analysis is not None:
+        drawn["residuals"] = (analysis.plot(), f"Residual correlations on the validation record "
+                              f"with their {analysis.confidence:.0%} bands: autocorrelation, then "
+                              "the cross-correlation with each input (positive lags: past inputs).")
+    figures_html = {}
     for name, (fig, caption) in drawn.items():
         png = _save(fig, out / f"{name}.png")
-        sections.append(f"<figure>{_image(png, name)}<figcaption class='note'>{caption}"
-                        "</figcaption></figure>")
+        figures_html[name] = (f"<figure>{_image(png, name)}<figcaption class='note'>{caption}"
+                              "</figcaption></figure>")
+    residuals = "" if analysis is None else residual_section(analysis, figures_html.pop("residuals"))
     interrupted = ("<p><b>The search was interrupted; the path below is partial.</b></p>"
                    if result.interrupted else "")
     page = f"""<!DOCTYPE html>
@@ -152,8 +187,8 @@ percent. Selected: lowest order within {result.options.order_tolerance:g} point 
 mean VAF.</p>
 {path_table(result)}
 <h2>Figures</h2>
-{''.join(sections)}
-</body></html>
+{''.join(figures_html.values())}
+{residuals}</body></html>
 """
     target = out / "report.html"
     target.write_text(page, encoding="utf-8")

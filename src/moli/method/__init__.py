@@ -5,13 +5,15 @@ of observability indices), :mod:`.filters` (the filter α and its divisors),
 :mod:`.estimation` (least squares for a fixed structure, realization),
 :mod:`.regression` and :mod:`.scoring` (the shared factors and the criterion J),
 :mod:`.tuning` (the barycenter filter search), :mod:`.output_filters`,
-:mod:`.search` (greedy path, order rule), :mod:`.refinement`, :mod:`.options` and
-:mod:`.identification` (the one-call entry point).
+:mod:`.search` (greedy path, order rule), :mod:`.refinement`, :mod:`.noise_model`
+(Kalman gain from the residuals), :mod:`.options` and :mod:`.identification` (the
+one-call entry point).
 """
 
 from .estimation import estimate, realize
 from .filters import divisor, divisors, filter_polynomial
 from .identification import IdentificationResult, identify
+from .noise_model import estimate_noise_model
 from .options import IdentifyOptions
 from .refinement import RefineResult, refine
 from .search import PathStep, exhaustive
@@ -19,6 +21,6 @@ from .tuning import TuningResult, default_omega, tune_filter
 
 __all__ = [
     "estimate", "realize", "divisor", "divisors", "filter_polynomial", "IdentificationResult",
-    "identify", "IdentifyOptions", "RefineResult", "refine", "PathStep", "exhaustive",
+    "identify", "IdentifyOptions", "estimate_noise_model", "RefineResult", "refine", "PathStep", "exhaustive",
     "TuningResult", "default_omega", "tune_filter",
 ]

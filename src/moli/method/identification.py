@@ -15,6 +15,7 @@ from ..errors import DataError, OptionError, OrderBoundWarning
 from ..models.statespace import StateSpaceModel
 from ..validation.comparison import compare
 from .estimation import check_sample_count
+from .noise_model import estimate_noise_model
 from .options import IdentifyOptions
 from .refinement import MAX_RADIUS
 from .refinement import refine as refine_model
@@ -118,6 +119,12 @@ class IdentificationResult:
             lines.append("its filters per output (wc, zeta): " + ", ".join(
                 f"y{j + 1} ({wc:.4g}, {zeta:.3g})" for j, (wc, zeta) in enumerate(self.selected.output_etas)
             ))
+        noise = self.model.info.get("noise_model", {})
+        if self.model.K is not None:
+            std = ", ".join(f"{v:.4g}" for v in np.sqrt(np.diag(self.model.noise_cov)))
+            lines.append(f"noise model: Kalman gain K from the estimation residuals, innovation std {std}")
+        elif noise.get("method") == "none":
+            lines.append(f"noise model: none ({noise['reason']})")
         return "\n".join(lines)
 
 
@@ -240,6 +247,8 @@ def identify(
         selected = select_order(path, opts.order_tolerance)
     if opts.refine == "selected":
         path[selected] = refined(path[selected])
+    if opts.noise_model:
+        path[selected] = replace(path[selected], model=_with_noise_model(path[selected].model, estimation))
     model = path[selected].model
     model.info["options"] = opts.to_dict()
     model.warn_if_unstable(stacklevel=2)
@@ -254,6 +263,19 @@ def identify(
         validation=validation, validation_source=source, options=opts, nmax=nmax, omega=grid,
         max_radius=radius, seconds=time.perf_counter() - start, interrupted=interrupted,
     )
+
+
+def _with_noise_model(model: StateSpaceModel, estimation: IOData) -> StateSpaceModel:
+    """``model`` with its noise model, or unchanged with the reason in ``info``.
+
+    An unstable model's simulation error grows without bound and says nothing about
+    the noise; a record too short for the noise model's least squares leaves none.
+    """
+    try:
+        return estimate_noise_model(model, estimation)
+    except DataError as exc:
+        model.info["noise_model"] = {"method": "none", "reason": str(exc)}
+        return model
 
 
 def _options(options: IdentifyOptions | None, overrides: dict[str, Any]) -> IdentifyOptions:

@@ -136,6 +136,10 @@ class IdentifyOptions:
         Remove the estimation record's means from both records (the model stores them).
     x0 : {"zero", "estimate"}, default "zero"
         Initial state of the validation simulations of the order rule.
+    noise_model : bool, default True
+        Attach a noise model (Kalman gain ``K`` and innovation covariance) to the
+        selected model, estimated from its residuals on the estimation record
+        (docs/noise_model.md); it leaves ``A, B, C, D`` and the path unchanged.
 
     Examples
     --------
@@ -166,6 +170,7 @@ class IdentifyOptions:
     refine_ridge: float = 1.0
     center: bool = True
     x0: str = "zero"
+    noise_model: bool = True
 
     def __post_init__(self) -> None:
         radius = self.max_radius
@@ -197,6 +202,7 @@ class IdentifyOptions:
                                     lambda r: r >= 0),
             "center": _flag("center", self.center),
             "x0": _choice("x0", self.x0, X0_CHOICES),
+            "noise_model": _flag("noise_model", self.noise_model),
         }
         for name, value in checked.items():
             object.__setattr__(self, name, value)

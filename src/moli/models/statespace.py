@@ -11,7 +11,7 @@ import numpy as np
 
 from .._version import __version__
 from ..data.iodata import as_signal
-from ..errors import DataError, ModelFileError, UnstableModelWarning
+from ..errors import DataError, ModelFileError, OptionError, UnstableModelWarning
 from .simulation import simulate_batch
 
 __all__ = ["StateSpaceModel", "model_from_dict", "load_model"]
@@ -25,6 +25,17 @@ def _matrix(name: str, value: object, shape: tuple[int, int] | None = None) -> n
         raise DataError(f"{name} must be a finite 2-D matrix, got shape {array.shape}")
     if shape is not None and array.shape != shape:
         raise DataError(f"{name} must have shape {shape}, got {array.shape}")
+    return array
+
+
+def _covariance(value: object, p: int) -> np.ndarray:
+    array = _matrix("noise_cov", value, (p, p))
+    scale = float(np.max(np.abs(array), initial=0.0))
+    # round-off tolerances: a covariance computed as E^T E / N is symmetric and PSD to
+    # a few ulps of its largest entry
+    if not np.allclose(array, array.T, rtol=0.0, atol=1e-12 * scale) or \
+            np.min(np.linalg.eigvalsh(array), initial=0.0) < -1e-10 * scale:
+        raise DataError("noise_cov must be symmetric positive semidefinite")
     return array
 
 
@@ -55,6 +66,13 @@ class StateSpaceModel:
     divisors : sequence of array_like, optional
         Per-output filter polynomials when each output had a filter of its own
         (``divisors[j]`` monic, stable, of degree ``indices[j]``); needs ``indices``.
+    K : array_like, optional
+        Noise model: Kalman gain of the innovations form ``x[k+1] = A x[k] + B u[k] +
+        K e[k]``, ``y[k] = C x[k] + D u[k] + e[k]``, shape (n, p) (docs/noise_model.md).
+        None (the default): no noise model.
+    noise_cov : array_like, optional
+        Covariance of the innovations ``e``, shape (p, p), symmetric positive
+        semidefinite; given together with ``K``.
 
     Examples
     --------
@@ -79,6 +97,8 @@ class StateSpaceModel:
         info: dict[str, Any] | None = None,
         *,
         divisors: Sequence[Sequence[float]] | None = None,
+        K: object | None = None,
+        noise_cov: object | None = None,
     ) -> None:
         self.A = _matrix("A", A)
         n = self.A.shape[0]
@@ -103,6 +123,10 @@ class StateSpaceModel:
         self.u_offset = np.zeros(m) if u_offset is None else np.array(u_offset, dtype=float).reshape(m)
         self.info = dict(info or {})
         self.divisors = None if divisors is None else self._checked_divisors(divisors)
+        if (K is None) != (noise_cov is None):
+            raise DataError("K and noise_cov make the noise model together: give both or neither")
+        self.K = None if K is None else _matrix("K", K, (n, p))
+        self.noise_cov = None if noise_cov is None else _covariance(noise_cov, p)
 
     def _checked_divisors(self, given: Sequence[Sequence[float]]) -> tuple[np.ndarray, ...]:
         if self.indices is None or len(given) != len(self.indices) or len(self.indices) != self.p:
@@ -124,6 +148,8 @@ class StateSpaceModel:
         """The same channels, structure and operating point with new matrices and filters.
 
         ``divisors`` given: per-output filters (``alpha`` dropped); None keeps ``alpha``.
+        The copy has no noise model: a Kalman gain belongs to the matrices it was
+        estimated with.
         """
         return StateSpaceModel(
             A, B, C, D, Ts=self.Ts, output_names=self.output_names, input_names=self.input_names,
@@ -203,15 +229,32 @@ class StateSpaceModel:
                 stacklevel=stacklevel + 1,
             )
 
-    def to_control(self):  # -> control.StateSpace
+    def to_control(self, noise: bool = False):  # -> control.StateSpace
         """Convert to a python-control ``StateSpace`` with the channel names.
 
         Requires the optional dependency ``control`` (``pip install control``).
+
+        Parameters
+        ----------
+        noise : bool, default False
+            False: the deterministic part (inputs ``u``). True: the innovations form,
+            with inputs ``[u, e]`` (``e`` named ``e@<output>``, covariance
+            ``noise_cov``), ``B = [B, K]`` and ``D = [D, I]``; needs a noise model.
         """
+        if not isinstance(noise, bool):
+            raise OptionError(f"noise must be True or False, got {noise!r}")
+        if noise and self.K is None:
+            raise OptionError("to_control(noise=True) needs a noise model, and model.K is None")
         try:
             import control
         except ImportError as exc:  # pragma: no cover - depends on the environment
             raise ImportError("to_control() needs python-control: pip install control") from exc
+        if noise:
+            return control.ss(
+                self.A, np.hstack([self.B, self.K]), self.C, np.hstack([self.D, np.eye(self.p)]), self.Ts,
+                inputs=[*self.input_names, *(f"e@{name}" for name in self.output_names)],
+                outputs=list(self.output_names),
+            )
         return control.ss(
             self.A, self.B, self.C, self.D, self.Ts,
             inputs=list(self.input_names), outputs=list(self.output_names),
@@ -229,6 +272,8 @@ class StateSpaceModel:
             "alpha": None if self.alpha is None else self.alpha.tolist(),
             "divisors": None if self.divisors is None else [d.tolist() for d in self.divisors],
             "y_offset": self.y_offset.tolist(), "u_offset": self.u_offset.tolist(),
+            "K": None if self.K is None else self.K.tolist(),
+            "noise_cov": None if self.noise_cov is None else self.noise_cov.tolist(),
             "info": self.info,
         }
 
@@ -253,6 +298,7 @@ def model_from_dict(content: dict[str, Any]) -> StateSpaceModel:
             content["output_names"], content["input_names"], content.get("indices"),
             content.get("alpha"), content.get("y_offset"), content.get("u_offset"),
             content.get("info"), divisors=content.get("divisors"),
+            K=content.get("K"), noise_cov=content.get("noise_cov"),  # absent in older files
         )
     except KeyError as exc:
         raise ModelFileError(f"model file lacks the field {exc}") from None

@@ -1,4 +1,4 @@
-"""Comparing a model with data: simulation from a zero or an estimated initial state."""
+"""Comparing a model with data: simulation (or k-step prediction) from a zero or an estimated initial state."""
 
 from __future__ import annotations
 
@@ -7,14 +7,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..data.iodata import IOData
-from ..errors import DataError, OptionError
+from ..errors import OptionError
 from .metrics import nrmse_fit, vaf
 from ..models.statespace import StateSpaceModel
-from ..models.simulation import free_response
+from .prediction import X0_CHOICES, check_horizon, deviations, initial_state, predicted_deviations
 
 __all__ = ["Comparison", "estimate_initial_state", "compare"]
-
-X0_CHOICES = ("zero", "estimate")
 
 
 @dataclass(frozen=True)
@@ -24,19 +22,22 @@ class Comparison:
     Attributes
     ----------
     yhat : ndarray, shape (N, p)
-        Simulated outputs in the data's units (offsets added back).
+        Simulated (or k-step predicted) outputs in the data's units (offsets added back).
     vaf : ndarray, shape (p,)
         Variance accounted for per output, percent.
     fit : ndarray, shape (p,)
         NRMSE fit per output, percent.
     x0 : ndarray, shape (n,)
         Initial state used.
+    horizon : int or None
+        Prediction horizon ``k``; None for the simulation.
     """
 
     yhat: np.ndarray
     vaf: np.ndarray
     fit: np.ndarray
     x0: np.ndarray
+    horizon: int | None = None
 
     @property
     def mean_vaf(self) -> float:
@@ -57,14 +58,14 @@ def estimate_initial_state(model: StateSpaceModel, u: np.ndarray, y: np.ndarray)
     -------
     ndarray, shape (n,)
     """
-    forced = model.simulate(u)
-    basis = free_response(model.A, model.C, y.shape[0]).reshape(-1, model.n)
-    solution, *_ = np.linalg.lstsq(basis, (y - forced).reshape(-1), rcond=None)
-    return solution
+    return initial_state(model, u, y)
 
 
-def compare(model: StateSpaceModel, data: IOData, x0: str = "zero") -> Comparison:
+def compare(model: StateSpaceModel, data: IOData, x0: str = "zero", horizon: int | None = None) -> Comparison:
     """Simulate ``model`` on ``data``'s inputs and score it against the outputs.
+
+    With ``horizon=k`` the scored outputs are the k-step-ahead predictions instead
+    (:func:`moli.predict`), like the System Identification Toolbox's ``compare``.
 
     Parameters
     ----------
@@ -75,6 +76,9 @@ def compare(model: StateSpaceModel, data: IOData, x0: str = "zero") -> Compariso
     x0 : {"zero", "estimate"}
         Start the simulation from the zero state, or from the least-squares
         initial state fitted to this record (uses the outputs: say so when reporting).
+    horizon : int or None, default None
+        None: simulation. ``k >= 1``: k-step-ahead prediction, which needs the
+        model's noise model (``model.K``).
 
     Returns
     -------
@@ -91,14 +95,10 @@ def compare(model: StateSpaceModel, data: IOData, x0: str = "zero") -> Compariso
     """
     if x0 not in X0_CHOICES:
         raise OptionError(f"x0 must be one of {X0_CHOICES}, got {x0!r}")
-    if (data.p, data.m) != (model.p, model.m):
-        raise DataError(
-            f"model has {model.p} outputs and {model.m} inputs, data have {data.p} and {data.m}"
-        )
-    u = data.u + data.u_offset - model.u_offset
-    y = data.y + data.y_offset - model.y_offset
-    start = estimate_initial_state(model, u, y) if x0 == "estimate" else np.zeros(model.n)
-    ydev = model.simulate(u, start)
+    k = check_horizon(model, horizon)
+    u, y = deviations(model, data)
+    ydev, start = predicted_deviations(model, u, y, k, x0)
     return Comparison(
-        yhat=ydev + model.y_offset - data.y_offset, vaf=vaf(y, ydev), fit=nrmse_fit(y, ydev), x0=start
+        yhat=ydev + model.y_offset - data.y_offset, vaf=vaf(y, ydev), fit=nrmse_fit(y, ydev), x0=start,
+        horizon=k,
     )

@@ -1,0 +1,272 @@
+"""Residual analysis: whiteness of the prediction errors and their independence of the inputs.
+
+The residuals are the one-step prediction errors of a model with a noise model, else
+its simulation errors (docs/noise_model.md §4). A model that has captured the data
+leaves residuals that are white (nothing left to predict from past outputs) and
+uncorrelated with past inputs (nothing left to explain by the inputs).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..data.iodata import IOData
+from ..errors import DataError, OptionError
+from ..models.statespace import StateSpaceModel
+from .prediction import X0_CHOICES, deviations, horizon_value, predicted_deviations
+from .whitening import fit_ar
+
+__all__ = ["ResidualAnalysis", "residual_analysis"]
+
+# Samples per lag needed: the correlation estimates at lag L use N - L products, and the
+# portmanteau statistics are poor approximations when L approaches N / 4.
+SAMPLES_PER_LAG = 4
+# Rows per unknown of the inputs' prewhitening AR models, which bounds their order.
+ROWS_PER_PARAMETER = 10
+
+
+def _correlations(a: np.ndarray, b: np.ndarray, lags: int) -> np.ndarray:
+    """``c[i, j, lags + τ] = sum_t a[t, i] b[t - τ, j] / N`` for ``τ = -lags..lags`` (by FFT)."""
+    N = a.shape[0]
+    size = 1 << int(np.ceil(np.log2(N + lags)))  # zero padding: no wrap-around within the lags
+    spectrum = np.fft.rfft(a, size, axis=0)[:, :, None] * np.conj(np.fft.rfft(b, size, axis=0))[:, None, :]
+    circular = np.fft.irfft(spectrum, size, axis=0)
+    return np.concatenate([circular[size - lags :], circular[: lags + 1]]).transpose(1, 2, 0) / N
+
+
+@dataclass(frozen=True)
+class ResidualAnalysis:
+    """Correlation tests of a model's residuals on one record.
+
+    A test rejects (the model misses something) when its p-value is below
+    ``1 - confidence``.
+
+    Attributes
+    ----------
+    residuals : ndarray, shape (N, p)
+        Prediction errors (``horizon`` steps ahead) or simulation errors.
+    horizon : int or None
+        Prediction horizon of the residuals; None: simulation errors.
+    lags : int
+        Largest lag tested.
+    confidence : float
+        Confidence level of the bounds and verdicts.
+    autocorrelation : ndarray, shape (p, lags + 1)
+        Normalized autocorrelation of each output's residual, lags ``0..lags``.
+    cross_correlation : ndarray, shape (p, m, 2 lags + 1)
+        Normalized correlation of residual ``i`` at ``t`` with input ``j`` at ``t - τ``,
+        ``τ = -lags..lags`` (entry ``lags + τ``); positive lags: past inputs.
+    whiteness_bound : float
+        ``z / sqrt(N)``: the autocorrelation band at this confidence for white residuals.
+    cross_bound : ndarray, shape (p, m)
+        Band of each cross-correlation under independence, widened for the colour of
+        the input and of the residual.
+    whiteness_pvalue : ndarray, shape (p,)
+        Ljung-Box test over lags ``1..lags`` (chi-square, ``lags`` degrees of freedom).
+    independence_pvalue : ndarray, shape (p, m)
+        Chi-square test of the correlations at lags ``0..lags`` with the prewhitened
+        input (``lags + 1`` degrees of freedom); NaN for a constant input.
+    verdicts : tuple of str
+        One line per output.
+    output_names, input_names : tuple of str
+    """
+
+    residuals: np.ndarray = field(repr=False)
+    horizon: int | None
+    lags: int
+    confidence: float
+    autocorrelation: np.ndarray = field(repr=False)
+    cross_correlation: np.ndarray = field(repr=False)
+    whiteness_bound: float
+    cross_bound: np.ndarray = field(repr=False)
+    whiteness_pvalue: np.ndarray
+    independence_pvalue: np.ndarray
+    verdicts: tuple[str, ...]
+    output_names: tuple[str, ...]
+    input_names: tuple[str, ...]
+
+    def plot(self) -> Any:  # -> matplotlib.figure.Figure
+        """The correlations with their bands, one row per output (like the toolbox's ``resid``).
+
+        Column 1: the residual's autocorrelation; then one column per input: the
+        cross-correlation at lags ``-lags..lags``. Needs matplotlib.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            Not registered with pyplot (drawn on the Agg canvas).
+        """
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        p, m = len(self.output_names), len(self.input_names)
+        fig = Figure(figsize=(2.6 * (m + 1) + 0.4, 1.9 * p + 0.6), layout="constrained")
+        FigureCanvasAgg(fig)
+        axes = fig.subplots(p, m + 1, squeeze=False)
+        kind = "simulation errors" if self.horizon is None else f"{self.horizon}-step prediction errors"
+        fig.suptitle(f"residual analysis ({kind}), {self.confidence:.0%} bands", fontsize=10)
+        own = np.arange(self.lags + 1)
+        both = np.arange(-self.lags, self.lags + 1)
+        for i, name in enumerate(self.output_names):
+            panels = [(axes[i, 0], own, self.autocorrelation[i], self.whiteness_bound,
+                       f"{name}: whiteness p = {self.whiteness_pvalue[i]:.2g}")]
+            panels += [(axes[i, j + 1], both, self.cross_correlation[i, j], self.cross_bound[i, j],
+                        f"{name} vs {u}: p = {self.independence_pvalue[i, j]:.2g}")
+                       for j, u in enumerate(self.input_names)]
+            for ax, lag, values, bound, title in panels:
+                ax.axhspan(-bound, bound, color="C0", alpha=0.15, linewidth=0)
+                ax.vlines(lag, 0.0, values, color="C0", linewidth=1.2)
+                ax.plot(lag, values, ".", color="C0", markersize=3)
+                ax.axhline(0.0, color="0.5", linewidth=0.8)
+                ax.set_title(title, fontsize=8)
+                ax.grid(alpha=0.3)
+                if i == p - 1:
+                    ax.set_xlabel("lag (samples)")
+        return fig
+
+
+def _verdict(name: str, white_p: float, independence_p: np.ndarray, inputs: tuple[str, ...], level: float) -> str:
+    if np.isnan(white_p):
+        return f"{name}: residuals constant (an exact fit): not tested"
+    white = f"white (Ljung-Box p = {white_p:.2g})" if white_p >= level else \
+        f"NOT white (Ljung-Box p = {white_p:.2g}): dynamics left unmodelled"
+    tested = ~np.isnan(independence_p)
+    if not tested.any():
+        return f"{name}: residuals {white}; independence not tested (constant inputs)"
+    worst = int(np.nanargmin(independence_p))
+    bad = [u for u, q, ok in zip(inputs, independence_p, tested) if ok and q < level]
+    independent = (f"correlated with past {', '.join(bad)} (smallest p = {independence_p[worst]:.2g}): "
+                   "input dynamics left unmodelled" if bad else
+                   f"independent of the inputs (smallest p = {independence_p[worst]:.2g}, {inputs[worst]})")
+    return f"{name}: residuals {white}; {independent}"
+
+
+def residual_analysis(
+    model: StateSpaceModel,
+    data: IOData,
+    lags: int = 25,
+    confidence: float = 0.99,
+    horizon: int | None = 1,
+    x0: str = "estimate",
+) -> ResidualAnalysis:
+    """Test whether ``model``'s residuals on ``data`` are white and independent of the inputs.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    data : IOData
+        Preferably a record the model was not estimated on.
+    lags : int, default 25
+        Largest lag tested; ``data`` needs at least ``4 (lags + 1)`` samples.
+    confidence : float, default 0.99
+        Level of the bands; a test rejects when its p-value is below ``1 - confidence``.
+    horizon : int or None, default 1
+        Residuals are the ``horizon``-step prediction errors when the model has a noise
+        model (``model.K``); without one, or with ``horizon=None``, the simulation errors.
+    x0 : {"estimate", "zero"}, default "estimate"
+        Initial state of the predictor (or simulation), as in :func:`moli.predict`.
+
+    Returns
+    -------
+    ResidualAnalysis
+
+    Raises
+    ------
+    OptionError
+        ``lags``, ``confidence``, ``horizon`` or ``x0`` invalid.
+    DataError
+        ``data`` does not match the model or is too short for ``lags``.
+
+    Examples
+    --------
+    >>> import numpy as np, moli
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.standard_normal(1000)
+    >>> m = moli.StateSpaceModel([[0.8]], [[1.0]], [[1.0]])
+    >>> data = moli.IOData(m.simulate(u) + 0.1 * rng.standard_normal((1000, 1)), u)
+    >>> result = residual_analysis(m, data)
+    >>> result.verdicts[0].startswith("y1: residuals white")
+    True
+    >>> low = moli.StateSpaceModel([[0.0]], [[1.0]], [[1.0]])  # misses the pole
+    >>> bool(residual_analysis(low, data).independence_pvalue[0, 0] < 0.01)
+    True
+    """
+    if isinstance(lags, bool) or not hasattr(lags, "__index__") or int(lags) < 1:  # type: ignore[call-overload]
+        raise OptionError(f"lags must be an integer >= 1, got {lags!r}")
+    lags = int(lags)  # type: ignore[call-overload]
+    if isinstance(confidence, bool) or not isinstance(confidence, (int, float)) or not 0.0 < confidence < 1.0:
+        raise OptionError(f"confidence must be a number in (0, 1), got {confidence!r}")
+    if x0 not in X0_CHOICES:
+        raise OptionError(f"x0 must be one of {X0_CHOICES}, got {x0!r}")
+    if not isinstance(model, StateSpaceModel):
+        raise DataError(f"model must be a StateSpaceModel, got {type(model).__name__}")
+    k = horizon_value(horizon)  # checked even when unused
+    if model.K is None:
+        k = None  # no predictor: the simulation errors
+    u, y = deviations(model, data)
+    N = y.shape[0]
+    if N < SAMPLES_PER_LAG * (lags + 1):
+        raise DataError(f"data must have at least {SAMPLES_PER_LAG * (lags + 1)} samples for "
+                        f"lags={lags}, got {N}; lower lags")
+    from scipy.special import chdtrc, ndtri  # slow to import: only when testing
+
+    yhat, _ = predicted_deviations(model, u, y, k, x0)
+    residuals = y - yhat
+    z = float(ndtri(0.5 + 0.5 * confidence))
+    e = residuals - residuals.mean(axis=0)
+    uc = u - u.mean(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        # constant signals give NaN correlations, reported as untested
+        e_scaled, u_scaled = e / e.std(axis=0), uc / uc.std(axis=0)
+        auto_e = np.einsum("iil->il", _correlations(e_scaled, e_scaled, lags))[:, lags:]
+        auto_u = np.einsum("jjl->jl", _correlations(u_scaled, u_scaled, lags))[:, lags:]
+        cross = _correlations(e_scaled, u_scaled, lags)
+        steps = np.arange(1, lags + 1)
+        ljung_box = N * (N + 2) * np.sum(auto_e[:, 1:] ** 2 / (N - steps), axis=1)
+        whiteness = chdtrc(lags, ljung_box)
+        # var(r_eu) ~ sum_k r_e(k) r_u(k) / N; the Bartlett taper keeps the truncated sum >= 0
+        taper = 1.0 - steps / (lags + 1.0)
+        spread = 1.0 + 2.0 * np.einsum("il,jl,l->ij", auto_e[:, 1:], auto_u[:, 1:], taper)
+        cross_bound = z * np.sqrt(spread / N)
+        independence = _independence(e, uc, auto_e, lags)
+    level = 1.0 - confidence
+    verdicts = tuple(_verdict(name, whiteness[i], independence[i], data.input_names, level)
+                     for i, name in enumerate(data.output_names))
+    return ResidualAnalysis(
+        residuals=residuals, horizon=k, lags=lags, confidence=float(confidence),
+        autocorrelation=auto_e, cross_correlation=cross, whiteness_bound=z / np.sqrt(N),
+        cross_bound=cross_bound, whiteness_pvalue=whiteness, independence_pvalue=independence,
+        verdicts=verdicts, output_names=data.output_names, input_names=data.input_names,
+    )
+
+
+def _independence(e: np.ndarray, u: np.ndarray, auto_e: np.ndarray, lags: int) -> np.ndarray:
+    """p-values of ``N r^T T^-1 r ~ chi2(lags + 1)``, ``r`` the correlations of ``e`` with past whitened inputs.
+
+    Each input is whitened by its own AR model, so that under independence the
+    correlations at lags ``0..lags`` have covariance ``T / N``, ``T`` the Toeplitz
+    matrix of the residual's autocorrelation (the residual need not be white).
+    """
+    from scipy.special import chdtrc  # slow to import: only when testing
+
+    N, p = e.shape
+    m = u.shape[1]
+    order = max(min(lags, (N - ROWS_PER_PARAMETER) // (ROWS_PER_PARAMETER + 1)), 0)
+    out = np.full((p, m), np.nan)
+    for j in range(m):
+        if not np.std(u[:, j]) > 0.0:
+            continue
+        white = fit_ar(u[:, j : j + 1], order)
+        v = white.residuals / np.std(white.residuals)
+        tail = e[white.start :]
+        r = _correlations(tail / tail.std(axis=0), v, lags)[:, 0, lags:]   # (p, lags + 1)
+        rows = N - white.start
+        gaps = np.abs(np.subtract.outer(np.arange(lags + 1), np.arange(lags + 1)))
+        for i in np.flatnonzero(np.isfinite(auto_e[:, 0])):  # constant residuals: untested
+            T = auto_e[i][gaps]  # Toeplitz: T[a, b] = r(|a - b|)
+            solved = np.linalg.lstsq(T, r[i], rcond=None)[0]
+            out[i, j] = chdtrc(lags + 1, rows * float(r[i] @ solved))
+    return out
