@@ -18,8 +18,8 @@ from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
 from .errors import (
-    DataError, FilterError, IllConditionedWarning, ModelFileError, MoliError, OptionError,
-    StructureError, UnstableModelWarning,
+    ClosedLoopWarning, DataError, FilterError, IllConditionedWarning, ModelFileError, MoliError,
+    OptionError, StructureError, UnstableModelWarning,
 )
 
 # public name -> the subpackage that defines it
@@ -27,9 +27,11 @@ _HOMES = {
     "IOData": "data", "read_data": "data", "load_daisy": "data", "list_daisy": "data",
     "DatasetChecksumError": "data", "DatasetUnavailableError": "data",
     "random_binary_signal": "data",
-    "StateSpaceModel": "models", "load_model": "models",
+    "StateSpaceModel": "models", "ContinuousModel": "models", "load_model": "models",
     "Comparison": "validation", "compare": "validation", "cost_j": "validation",
     "nrmse_fit": "validation", "vaf": "validation",
+    "EmpiricalResponse": "validation", "empirical_frequency_response": "validation",
+    "estimate_delays": "validation", "FeedbackCheck": "validation", "feedback_check": "validation",
     "estimate": "method", "divisor": "method", "divisors": "method",
     "filter_polynomial": "method", "IdentificationResult": "method", "identify": "method",
     "IdentifyOptions": "method", "PathStep": "method",
@@ -40,7 +42,7 @@ _SUBPACKAGES = ("data", "models", "validation", "method", "streaming", "systems"
 
 __all__ = [
     "__version__", "MoliError", "DataError", "FilterError", "IllConditionedWarning",
-    "ModelFileError", "OptionError", "StructureError", "UnstableModelWarning",
+    "ModelFileError", "OptionError", "StructureError", "UnstableModelWarning", "ClosedLoopWarning",
     *_HOMES, *_SUBPACKAGES,
 ]
 
@@ -54,10 +56,13 @@ if TYPE_CHECKING:  # what the lazy names are, for type checkers and IDEs
         IdentificationResult, IdentifyOptions, PathStep, divisor, divisors, estimate,
         filter_polynomial, identify,
     )
-    from .models import StateSpaceModel, load_model
+    from .models import ContinuousModel, StateSpaceModel, load_model
     from .streaming import ChunkedEstimator, FilterBank, RecursiveMoli
     from .systems import example_data, example_plant, experiment
-    from .validation import Comparison, compare, cost_j, nrmse_fit, vaf
+    from .validation import (
+        Comparison, EmpiricalResponse, FeedbackCheck, compare, cost_j, empirical_frequency_response,
+        estimate_delays, feedback_check, nrmse_fit, vaf,
+    )
 
 
 def __getattr__(name: str) -> Any:

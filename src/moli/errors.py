@@ -8,7 +8,7 @@ from __future__ import annotations
 
 __all__ = [
     "MoliError", "DataError", "StructureError", "FilterError", "OptionError", "ModelFileError",
-    "UnstableModelWarning", "IllConditionedWarning",
+    "UnstableModelWarning", "IllConditionedWarning", "ClosedLoopWarning",
 ]
 
 
@@ -43,3 +43,7 @@ class UnstableModelWarning(UserWarning):
 class IllConditionedWarning(UserWarning):
     """A least-squares problem is rank deficient or badly conditioned."""
 
+
+
+class ClosedLoopWarning(UserWarning):
+    """The estimation data look closed-loop: an input depends on past outputs."""

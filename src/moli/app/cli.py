@@ -284,6 +284,8 @@ def describe(model: StateSpaceModel) -> str:
         f"outputs: {', '.join(model.output_names)}",
         f"inputs: {', '.join(model.input_names)}",
     ]
+    if any(model.input_delays):
+        lines.append(f"input delays (samples): {list(model.input_delays)}")
     if model.indices is not None:
         lines.append(f"observability indices: {list(model.indices)}")
     if model.alpha is not None:

@@ -13,6 +13,8 @@ import math
 from dataclasses import asdict, dataclass, fields, replace
 from typing import Any, Mapping
 
+import numpy as np
+
 from ..errors import OptionError
 from ..validation.comparison import X0_CHOICES
 from .regression import FEEDTHROUGH_CHOICES
@@ -78,6 +80,24 @@ def _omega(value: object) -> tuple[tuple[float, float], ...] | None:
     return tuple(pairs)
 
 
+def _delays(value: object) -> int | tuple[int, ...] | str:
+    if isinstance(value, str) and value == "auto":
+        return "auto"
+    accepted = "'auto', a non-negative integer (every input) or a non-empty sequence of them (one per input)"
+
+    def one(item: object) -> int:
+        if isinstance(item, (bool, np.bool_)) or not hasattr(item, "__index__") \
+                or item.__index__() < 0:  # type: ignore[union-attr]
+            raise _fail("delays", accepted, value)
+        return int(item.__index__())  # type: ignore[union-attr]
+
+    if isinstance(value, (list, tuple, np.ndarray)):
+        if len(value) == 0:
+            raise _fail("delays", accepted, value)
+        return tuple(one(item) for item in value)
+    return one(value)
+
+
 @dataclass(frozen=True)
 class IdentifyOptions:
     """Every choice of an identification (see docs/method.md for the method).
@@ -128,6 +148,11 @@ class IdentifyOptions:
         Remove the estimation record's means from both records (the model stores them).
     x0 : {"zero", "estimate"}, default "zero"
         Initial state of the validation simulations of the order rule.
+    delays : int, sequence of int or "auto", default 0
+        Dead time of each input in samples (one int: every input): the model is
+        estimated on the shifted inputs and carries them (``model.input_delays``).
+        "auto": per input, the smallest over the outputs of
+        :func:`moli.estimate_delays` on the estimation record (docs/diagnostics.md §3).
 
     Examples
     --------
@@ -157,6 +182,7 @@ class IdentifyOptions:
     refine_ridge: float = 1.0
     center: bool = True
     x0: str = "zero"
+    delays: int | tuple[int, ...] | str = 0
 
     def __post_init__(self) -> None:
         radius = self.max_radius
@@ -187,6 +213,7 @@ class IdentifyOptions:
                                     lambda r: r >= 0),
             "center": _flag("center", self.center),
             "x0": _choice("x0", self.x0, X0_CHOICES),
+            "delays": _delays(self.delays),
         }
         for name, value in checked.items():
             object.__setattr__(self, name, value)
@@ -227,6 +254,8 @@ class IdentifyOptions:
         out = asdict(self)
         if self.omega is not None:
             out["omega"] = [list(pair) for pair in self.omega]
+        if isinstance(self.delays, tuple):
+            out["delays"] = list(self.delays)
         return out
 
     @classmethod

@@ -12,6 +12,8 @@ import numpy as np
 from .._version import __version__
 from ..data.iodata import as_signal
 from ..errors import DataError, ModelFileError, UnstableModelWarning
+from .delays import check_delays, delay_states, shift_inputs
+from .frequency import check_omega, frequency_response
 from .simulation import simulate_batch
 
 FILE_FORMAT = "moli-model"
@@ -127,7 +129,7 @@ class StateSpaceModel:
             A, B, C, D, Ts=self.Ts, output_names=self.output_names, input_names=self.input_names,
             indices=self.indices, alpha=self.alpha if divisors is None else None,
             y_offset=self.y_offset, u_offset=self.u_offset, info=info, divisors=divisors,
-        )
+        ).with_input_delays(self.input_delays)
 
     @property
     def n(self) -> int:
@@ -154,7 +156,9 @@ class StateSpaceModel:
         Parameters
         ----------
         u : array_like, shape (N, m)
-            Input deviations, time along axis 0 (1-D accepted when m = 1).
+            Input deviations, time along axis 0 (1-D accepted when m = 1). With
+            :attr:`input_delays`, input ``j`` acts ``input_delays[j]`` samples late
+            (zero before the record).
         x0 : array_like, shape (n,), optional
             Initial state; zero by default.
 
@@ -162,7 +166,7 @@ class StateSpaceModel:
         -------
         ndarray, shape (N, p)
         """
-        uu = as_signal("u", u, self.m)
+        uu = shift_inputs(as_signal("u", u, self.m), self.input_delays)
         start = None
         if x0 is not None:
             start = np.array(x0, dtype=float).reshape(-1)
@@ -201,18 +205,23 @@ class StateSpaceModel:
                 stacklevel=stacklevel + 1,
             )
 
-    def to_control(self):  # -> control.StateSpace
+    def to_control(self, continuous: bool = False):  # -> control.StateSpace
         """Convert to a python-control ``StateSpace`` with the channel names.
 
         Requires the optional dependency ``control`` (``pip install control``).
+        Input delays become states (:meth:`delays_as_states`). ``continuous=True``
+        converts :meth:`to_continuous` (zero-order hold) instead.
         """
+        if continuous:
+            return self.to_continuous().to_control()
         try:
             import control
         except ImportError as exc:  # pragma: no cover - depends on the environment
             raise ImportError("to_control() needs python-control: pip install control") from exc
+        model = self.delays_as_states()
         return control.ss(
-            self.A, self.B, self.C, self.D, self.Ts,
-            inputs=list(self.input_names), outputs=list(self.output_names),
+            model.A, model.B, model.C, model.D, model.Ts,
+            inputs=list(model.input_names), outputs=list(model.output_names),
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -227,12 +236,124 @@ class StateSpaceModel:
             "alpha": None if self.alpha is None else self.alpha.tolist(),
             "divisors": None if self.divisors is None else [d.tolist() for d in self.divisors],
             "y_offset": self.y_offset.tolist(), "u_offset": self.u_offset.tolist(),
-            "info": self.info,
+            "info": self.info, "input_delays": list(self.input_delays),
         }
 
     def save(self, path: str | Path) -> None:
         """Write the model to a JSON file (read it back with :func:`moli.load_model`)."""
         Path(path).write_text(json.dumps(self.to_dict(), indent=1))
+
+    # Delays, frequency response and continuous time (docs/diagnostics.md). The delays
+    # are set by with_input_delays on a copy, so the constructor keeps its signature.
+    _input_delays: tuple[int, ...] | None = None
+
+    @property
+    def input_delays(self) -> tuple[int, ...]:
+        """Dead time of each input in samples (zeros unless set by :meth:`with_input_delays`)."""
+        return self._input_delays if self._input_delays is not None else (0,) * self.m
+
+    def with_input_delays(self, delays: int | Sequence[int]) -> "StateSpaceModel":
+        """A copy whose input ``j`` acts ``delays[j]`` samples late (one int: every input).
+
+        Examples
+        --------
+        >>> m = StateSpaceModel([[0.5]], [[1.0]], [[1.0]]).with_input_delays([2])
+        >>> m.input_delays, m.simulate([1.0, 0.0, 0.0, 0.0]).ravel()
+        ((2,), array([0., 0., 0., 1.]))
+        """
+        checked = check_delays(delays, self.m)
+        # a copy of every attribute, not a constructor call: nothing the model carries is lost
+        copy = StateSpaceModel.__new__(StateSpaceModel)
+        copy.__dict__.update(
+            {key: value.copy() if isinstance(value, np.ndarray) else value
+             for key, value in self.__dict__.items()},
+            info=dict(self.info), _input_delays=checked,
+        )
+        return copy
+
+    def delays_as_states(self) -> "StateSpaceModel":
+        """The same input-output model with its delays as shift-register states, no delays.
+
+        The model itself when it has none; the copy has no structure (indices, filters).
+        """
+        if not any(self.input_delays):
+            return self
+        A, B, C, D = delay_states(self.A, self.B, self.C, self.D, self.input_delays)
+        return StateSpaceModel(A, B, C, D, self.Ts, self.output_names, self.input_names,
+                               y_offset=self.y_offset, u_offset=self.u_offset, info=dict(self.info))
+
+    def frequency_response(self, omega: object) -> np.ndarray:
+        """Frequency response ``C (zI - A)^-1 B + D`` at ``z = exp(1j omega Ts)``, with the delays.
+
+        Parameters
+        ----------
+        omega : array_like, shape (F,)
+            Frequencies in rad per time unit of ``Ts`` (Nyquist: ``pi / Ts``).
+
+        Returns
+        -------
+        ndarray of complex, shape (F, p, m)
+            Entry ``[f, i, j]``: from input ``j`` to output ``i`` at ``omega[f]``.
+
+        Examples
+        --------
+        >>> m = StateSpaceModel([[0.5]], [[1.0]], [[1.0]])
+        >>> m.frequency_response([0.0])     # static gain 1 / (1 - 0.5)
+        array([[[2.+0.j]]])
+        """
+        w = check_omega(omega)
+        delays = self.Ts * np.asarray(self.input_delays, dtype=float)
+        return frequency_response(self.A, self.B, self.C, self.D, np.exp(1j * w * self.Ts), w, delays)
+
+    def to_continuous(self, method: str = "zoh"):  # -> ContinuousModel
+        """The continuous-time model this model samples, by zero-order hold or Tustin.
+
+        Parameters
+        ----------
+        method : {"zoh", "tustin"}
+            "zoh": matrix logarithm of ``[[A, B], [0, I]]``, divided by ``Ts``; needs
+            no pole at ``z = 0`` or on the negative real axis (:class:`DataError`
+            otherwise). "tustin": inverse of ``s = (2/Ts)(z-1)/(z+1)``; needs no
+            pole at ``z = -1``.
+
+        Returns
+        -------
+        moli.models.ContinuousModel
+            With the channel names, offsets, and delays in time units.
+
+        Examples
+        --------
+        >>> round(float(StateSpaceModel([[0.5]], [[1.0]], [[1.0]], Ts=0.1).to_continuous().A[0, 0]), 6)
+        -6.931472
+        """
+        from .continuous import to_continuous
+
+        return to_continuous(self, method)
+
+    @classmethod
+    def from_continuous(
+        cls, A: object, B: object, C: object, D: object | None = None, Ts: float = 1.0,
+        method: str = "zoh", *, output_names: Sequence[str] | None = None,
+        input_names: Sequence[str] | None = None, y_offset: object | None = None,
+        u_offset: object | None = None,
+    ) -> "StateSpaceModel":
+        """Sample the continuous model ``x' = A x + B u``, ``y = C x + D u`` at period ``Ts``.
+
+        ``method="zoh"``: ``[[Ad, Bd], [0, I]] = expm([[A, B], [0, 0]] Ts)`` (inputs held
+        over each period); ``"tustin"``: the bilinear map. Inverse of :meth:`to_continuous`.
+
+        Examples
+        --------
+        >>> m = StateSpaceModel.from_continuous([[-1.0]], [[1.0]], [[1.0]], Ts=0.5)
+        >>> round(float(m.A[0, 0]), 6), round(float(m.B[0, 0]), 6)     # exp(-0.5), 1 - exp(-0.5)
+        (0.606531, 0.393469)
+        """
+        from .continuous import discretize
+
+        checked = cls(A, B, C, D, Ts)  # the constructor's shape, finiteness and Ts checks
+        Ad, Bd, Cd, Dd = discretize(checked.A, checked.B, checked.C, checked.D, checked.Ts, method)
+        return cls(Ad, Bd, Cd, Dd, checked.Ts, output_names, input_names,
+                   y_offset=y_offset, u_offset=u_offset)
 
 
 def model_from_dict(content: dict[str, Any]) -> StateSpaceModel:
@@ -251,7 +372,7 @@ def model_from_dict(content: dict[str, Any]) -> StateSpaceModel:
             content["output_names"], content["input_names"], content.get("indices"),
             content.get("alpha"), content.get("y_offset"), content.get("u_offset"),
             content.get("info"), divisors=content.get("divisors"),
-        )
+        ).with_input_delays(content.get("input_delays", 0))
     except KeyError as exc:
         raise ModelFileError(f"model file lacks the field {exc}") from None
     except DataError as exc:
