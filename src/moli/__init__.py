@@ -18,8 +18,9 @@ from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
 from .errors import (
-    DataError, DataQualityWarning, FilterError, IllConditionedWarning, ModelFileError, MoliError,
-    OptionError, OrderBoundWarning, StructureError, UnstableModelWarning,
+    ClosedLoopWarning, DataError, DataQualityWarning, FilterError, IllConditionedWarning,
+    ModelFileError, MoliError, OptionError, OrderBoundWarning, StructureError,
+    UnstableModelWarning,
 )
 
 # public name -> the subpackage that defines it
@@ -27,10 +28,12 @@ _HOMES = {
     "IOData": "data", "read_data": "data", "from_dataframe": "data", "to_dataframe": "data", "load_daisy": "data", "list_daisy": "data",
     "DatasetChecksumError": "data", "DatasetUnavailableError": "data",
     "random_binary_signal": "data", "check_data": "data",
-    "StateSpaceModel": "models", "load_model": "models",
+    "StateSpaceModel": "models", "ContinuousModel": "models", "load_model": "models",
     "Comparison": "validation", "compare": "validation", "cost_j": "validation",
     "nrmse_fit": "validation", "vaf": "validation", "predict": "validation",
     "residual_analysis": "validation", "ResidualAnalysis": "validation",
+    "EmpiricalResponse": "validation", "empirical_frequency_response": "validation",
+    "estimate_delays": "validation", "FeedbackCheck": "validation", "feedback_check": "validation",
     "estimate": "method", "divisor": "method", "divisors": "method",
     "filter_polynomial": "method", "IdentificationResult": "method", "identify": "method",
     "IdentifyOptions": "method", "PathStep": "method", "estimate_noise_model": "method",
@@ -42,7 +45,7 @@ _SUBPACKAGES = ("data", "models", "validation", "method", "streaming", "systems"
 __all__ = [
     "__version__", "MoliError", "DataError", "FilterError", "IllConditionedWarning",
     "ModelFileError", "OptionError", "StructureError", "UnstableModelWarning", "DataQualityWarning",
-    "OrderBoundWarning",
+    "OrderBoundWarning", "ClosedLoopWarning",
     *_HOMES, *_SUBPACKAGES,
 ]
 
@@ -56,11 +59,13 @@ if TYPE_CHECKING:  # what the lazy names are, for type checkers and IDEs
         IdentificationResult, IdentifyOptions, PathStep, divisor, divisors, estimate,
         estimate_noise_model, filter_polynomial, identify,
     )
-    from .models import StateSpaceModel, load_model
+    from .models import ContinuousModel, StateSpaceModel, load_model
     from .streaming import ChunkedEstimator, FilterBank, RecursiveMoli
     from .systems import example_data, example_plant, experiment
     from .validation import (
-        Comparison, ResidualAnalysis, compare, cost_j, nrmse_fit, predict, residual_analysis, vaf,
+        Comparison, EmpiricalResponse, FeedbackCheck, ResidualAnalysis, compare, cost_j,
+        empirical_frequency_response, estimate_delays, feedback_check, nrmse_fit, predict,
+        residual_analysis, vaf,
     )
 
 

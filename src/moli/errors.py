@@ -9,6 +9,7 @@ from __future__ import annotations
 __all__ = [
     "MoliError", "DataError", "StructureError", "FilterError", "OptionError", "ModelFileError",
     "UnstableModelWarning", "IllConditionedWarning", "DataQualityWarning", "OrderBoundWarning",
+    "ClosedLoopWarning",
 ]
 
 
@@ -51,3 +52,7 @@ class DataQualityWarning(UserWarning):
 
 class OrderBoundWarning(UserWarning):
     """The selected order is the largest the structure search was allowed to reach."""
+
+
+class ClosedLoopWarning(UserWarning):
+    """The estimation data look closed-loop: an input depends on past outputs."""

@@ -125,5 +125,9 @@ def test_stability_test_agrees_with_the_roots(moduli, angles):
     reals = [m * np.sign(np.cos(a)) or m for m, a in zip(moduli[half:], angles[half:])]
     coeffs = np.real(np.poly(np.concatenate([pairs, np.conj(pairs), reals])))
     radius = np.max(np.abs(np.roots(coeffs)))
-    if abs(radius - 1.0) > 1e-9:          # on the circle, round-off may decide either way
+    built = max(moduli)  # the radius the roots were built with
+    # On the circle, round-off may decide either way; and clustered roots near it are
+    # moved by the coefficients' rounding (by about eps**(1/multiplicity)), so the
+    # stored polynomial is only judged where the built and the computed radius agree.
+    if abs(radius - 1.0) > 1e-9 and (built < 1.0) == (radius < 1.0):
         assert _schur_stable(coeffs) == (radius < 1.0)

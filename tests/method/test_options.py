@@ -32,6 +32,7 @@ BAD = {
     "center": ("yes", None),
     "x0": (None, "random"),
     "noise_model": ("yes", None),
+    "delays": (1.5, -1),
 }
 
 

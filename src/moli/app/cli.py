@@ -26,7 +26,8 @@ from ..errors import DataError, MoliError, OptionError
 from ..method.identification import IdentificationResult, identify
 from ..method.options import PRESETS, IdentifyOptions
 from ..method.search import PathStep, StructureSearch, exhaustive
-from ..models.statespace import StateSpaceModel, load_model
+from ..models.statespace import StateSpaceModel
+from ..models.storage import load_model
 from ..systems.plant import example_data
 from ..validation.comparison import X0_CHOICES, compare
 from .figures import measured_vs_simulated
@@ -286,6 +287,8 @@ def describe(model: StateSpaceModel) -> str:
         f"outputs: {', '.join(model.output_names)}",
         f"inputs: {', '.join(model.input_names)}",
     ]
+    if any(model.input_delays):
+        lines.append(f"input delays (samples): {list(model.input_delays)}")
     if model.indices is not None:
         lines.append(f"observability indices: {list(model.indices)}")
     if model.alpha is not None:

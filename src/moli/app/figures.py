@@ -16,6 +16,7 @@ from ..data.iodata import IOData
 from ..models.statespace import StateSpaceModel
 from ..method.search import PathStep
 from ..validation.comparison import Comparison
+from ..validation.frequency import empirical_frequency_response
 
 __all__ = ["vaf_by_order", "measured_vs_simulated", "poles", "step_responses", "settling_samples"]
 
@@ -164,6 +165,53 @@ def step_responses(model: StateSpaceModel, samples: int) -> Figure:
                 ax.set_ylabel(f"to {model.output_names[i]}")
             if i == model.p - 1:
                 ax.set_xlabel("time")
+    return fig
+
+
+def bode_magnitude(model: StateSpaceModel, data: IOData | None = None, nperseg: int | None = None) -> Figure:
+    """Gain of every input-output pair against frequency (a p-by-m grid), in dB.
+
+    The model's :meth:`~moli.StateSpaceModel.frequency_response` as a line up to
+    the Nyquist frequency; with ``data``, the spectral estimate
+    :func:`moli.empirical_frequency_response` on the same axes as dots, at the
+    data's Welch frequencies.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    data : IOData, optional
+        A record of the same channels (raw or centred).
+    nperseg : int, optional
+        Welch segment length of the empirical estimate.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    nyquist = np.pi / model.Ts
+    omega = np.logspace(np.log10(nyquist) - 3, np.log10(nyquist), 400)
+    gain = 20 * np.log10(np.maximum(np.abs(model.frequency_response(omega)), 1e-300))
+    empirical = None if data is None else empirical_frequency_response(data, nperseg=nperseg)
+    fig = _figure(2.4 * model.m + 0.6, PANEL_HEIGHT * model.p + 0.4)
+    axes = fig.subplots(model.p, model.m, sharex=True, squeeze=False)
+    for i in range(model.p):
+        for j in range(model.m):
+            ax = axes[i, j]
+            ax.semilogx(omega, gain[:, i, j], color="C0", linewidth=1.2, label="model")
+            if empirical is not None:
+                with np.errstate(divide="ignore"):
+                    points = 20 * np.log10(np.abs(empirical.response[:, i, j]))
+                ax.semilogx(empirical.omega, points, ".", color="0.4", markersize=3,
+                            label="spectral estimate")
+            ax.grid(alpha=0.3, which="both")
+            if i == 0:
+                ax.set_title(f"from {model.input_names[j]}", fontsize=9)
+            if j == 0:
+                ax.set_ylabel(f"to {model.output_names[i]} (dB)")
+            if i == model.p - 1:
+                ax.set_xlabel("rad per time unit")
+    if empirical is not None:
+        fig.legend(*axes[0, 0].get_legend_handles_labels(), loc="outside upper left", fontsize=8, ncols=2)
     return fig
 
 

@@ -11,9 +11,12 @@ import numpy as np
 
 from ..data.iodata import IOData
 from ..data.quality import screen
-from ..errors import DataError, OptionError, OrderBoundWarning
+from ..errors import ClosedLoopWarning, DataError, OptionError, OrderBoundWarning
+from ..models.delays import shift_inputs
 from ..models.statespace import StateSpaceModel
 from ..validation.comparison import compare
+from ..validation.delays import first_significant_lags
+from ..validation.feedback import feedback_check, usable_lags
 from .estimation import check_sample_count
 from .noise_model import estimate_noise_model
 from .options import IdentifyOptions
@@ -29,6 +32,8 @@ HOLDOUT_FRACTION = 0.3
 # "auto" stability bound: a mode whose time constant exceeds a tenth of the estimation
 # record (radius exp(-10/N)) cannot be told from drift in that record.
 AUTO_RADIUS_SPAN = 10.0
+# Samples of the estimation record the feedback check looks at.
+FEEDBACK_SAMPLES = 3000
 
 
 @dataclass
@@ -96,7 +101,8 @@ class IdentificationResult:
             f"options: tuning {opts.tuning}, s = {opts.s:g}, feedthrough {opts.feedthrough}, "
             f"max pole radius {'none' if self.max_radius is None else f'{self.max_radius:.6g}'}, "
             f"J trend degree {opts.trend_degree}, per-output filters {opts.output_filters}, "
-            f"refinement {opts.refine}",
+            f"refinement {opts.refine}"
+            + (f", input delays {list(self.model.input_delays)}" if any(self.model.input_delays) else ""),
             head,
         ]
         for i, st in enumerate(self.path):
@@ -205,13 +211,19 @@ def identify(
     radius = opts.max_radius
     if radius == "auto":
         radius = float(np.exp(-AUTO_RADIUS_SPAN / estimation.N))
-    search = StructureSearch(
-        estimation, validation, grid, opts.tuning, opts.iterations, opts.s, opts.seed, opts.x0,
-        opts.criterion_x0, opts.feedthrough, radius, opts.trend_degree, opts.output_filters,
-    )
-    check_sample_count(estimation.N, (1,) * p, estimation.m, opts.feedthrough is not False)
+    delays = _input_delays(opts.delays, estimation)
+    check_sample_count(estimation.N - max(delays), (1,) * p, estimation.m, opts.feedthrough is not False)
     screen(estimation, nmax, stacklevel=2)
     start = time.perf_counter()
+    # a plant told to have feedthrough shows it at lag 0 like feedback: test later lags only
+    _warn_if_closed_loop(estimation, lag_zero=opts.feedthrough is not True)
+    # the path's models are fitted and scored on the shifted inputs, delay-free; the
+    # delays are attached once the path is done (the results are the same either way)
+    fitted, scored = _shifted(estimation, delays), _shifted(validation, delays)
+    search = StructureSearch(
+        fitted, scored, grid, opts.tuning, opts.iterations, opts.s, opts.seed, opts.x0,
+        opts.criterion_x0, opts.feedthrough, radius, opts.trend_degree, opts.output_filters,
+    )
     path: list[PathStep] = []
     interrupted = False
 
@@ -233,22 +245,25 @@ def identify(
 
     def refined(step: PathStep) -> PathStep:
         started = time.perf_counter()
-        result = refine_model(step.model, estimation, iterations=opts.refine_iterations,
+        result = refine_model(step.model, fitted, iterations=opts.refine_iterations,
                               ridge=opts.refine_ridge, max_radius=bound)
-        vaf = compare(result.model, validation, opts.x0).vaf
+        vaf = compare(result.model, scored, opts.x0).vaf
         return replace(step, model=result.model, vaf=vaf,
                        seconds=step.seconds + time.perf_counter() - started)
 
     if opts.refine == "path" and not interrupted:
         path[:] = [refined(st) for st in path]
     if opts.order_rule == "paired":
-        selected = select_order_paired(path, validation, opts.x0)
+        selected = select_order_paired(path, scored, opts.x0)
     else:
         selected = select_order(path, opts.order_tolerance)
     if opts.refine == "selected":
         path[selected] = refined(path[selected])
-    if opts.noise_model:
-        path[selected] = replace(path[selected], model=_with_noise_model(path[selected].model, estimation))
+    if opts.noise_model:  # on the delay-free model and the shifted record it was fitted on
+        path[selected] = replace(path[selected], model=_with_noise_model(path[selected].model, fitted))
+    if any(delays):
+        for step in path:
+            step.model = step.model.with_input_delays(delays)
     model = path[selected].model
     model.info["options"] = opts.to_dict()
     model.warn_if_unstable(stacklevel=2)
@@ -288,3 +303,55 @@ def _options(options: IdentifyOptions | None, overrides: dict[str, Any]) -> Iden
             raise OptionError("give either options or preset, not both")
         return IdentifyOptions.preset(preset, **overrides)
     return (options or IdentifyOptions()).replace(**overrides)
+
+
+def _input_delays(delays: int | tuple[int, ...] | str, estimation: IOData) -> tuple[int, ...]:
+    """``IdentifyOptions.delays`` for this record: one int per input, checked or estimated."""
+    m = estimation.m
+    if delays == "auto":
+        first, _ = first_significant_lags(estimation)
+        # per input, the earliest response over the outputs; an input that no output
+        # answers within the lags looked at gets no delay (nothing supports one)
+        return tuple(
+            max(int(np.min(col[col >= 0])) - 1, 0) if np.any(col >= 0) else 0 for col in first.T
+        )
+    values = (delays,) * m if isinstance(delays, int) else tuple(delays)
+    if len(values) != m:
+        raise OptionError(f"IdentifyOptions.delays has {len(values)} entries for {m} inputs")
+    if max(values) >= estimation.N:
+        raise OptionError(
+            f"IdentifyOptions.delays must be shorter than the estimation record ({estimation.N} "
+            f"samples), got {list(values)}"
+        )
+    return values
+
+
+def _shifted(data: IOData, delays: tuple[int, ...]) -> IOData:
+    """``data`` with input ``j`` delayed by ``delays[j]`` samples (zero, i.e. the operating
+    point, before the record), as the model's simulation shifts it."""
+    if not any(delays):
+        return data
+    shifted = IOData(data.y, shift_inputs(data.u, delays), data.Ts, data.output_names, data.input_names)
+    shifted.y_offset, shifted.u_offset = data.y_offset.copy(), data.u_offset.copy()
+    return shifted
+
+
+def _warn_if_closed_loop(estimation: IOData, lag_zero: bool) -> None:
+    """Issue a :class:`ClosedLoopWarning` when :func:`feedback_check` flags the record."""
+    # the first FEEDBACK_SAMPLES samples: a loop that shows in no fewer is too weak to
+    # matter, and the check's cost stays bounded while the search's grows with N
+    record = estimation[:FEEDBACK_SAMPLES]
+    lags = usable_lags(record.N, record.p, record.m)
+    if lags == 0:  # too short to tell
+        return
+    check = feedback_check(record, lags, lag_zero=lag_zero)
+    if check.detected:
+        warnings.warn(
+            f"the estimation data look closed-loop: {check.summary()}. An output-error model "
+            "fitted to closed-loop data is biased unless the output noise is white. Excite the "
+            "loop from outside (a reference or dither independent of the noise) or use a method "
+            "that models the noise. A plant with direct feedthrough looks the same at lag 0: "
+            "pass feedthrough=True if yours has one",
+            ClosedLoopWarning,
+            stacklevel=3,
+        )

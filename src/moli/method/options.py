@@ -13,6 +13,8 @@ import math
 from dataclasses import asdict, dataclass, fields, replace
 from typing import Any, Mapping
 
+import numpy as np
+
 from ..errors import OptionError
 from ..validation.comparison import X0_CHOICES
 from .regression import FEEDTHROUGH_CHOICES
@@ -81,6 +83,24 @@ def _omega(value: object) -> tuple[tuple[float, float], ...] | None:
     return tuple(pairs)
 
 
+def _delays(value: object) -> int | tuple[int, ...] | str:
+    if isinstance(value, str) and value == "auto":
+        return "auto"
+    accepted = "'auto', a non-negative integer (every input) or a non-empty sequence of them (one per input)"
+
+    def one(item: object) -> int:
+        if isinstance(item, (bool, np.bool_)) or not hasattr(item, "__index__") \
+                or item.__index__() < 0:  # type: ignore[union-attr]
+            raise _fail("delays", accepted, value)
+        return int(item.__index__())  # type: ignore[union-attr]
+
+    if isinstance(value, (list, tuple, np.ndarray)):
+        if len(value) == 0:
+            raise _fail("delays", accepted, value)
+        return tuple(one(item) for item in value)
+    return one(value)
+
+
 @dataclass(frozen=True)
 class IdentifyOptions:
     """Every choice of an identification (see docs/method.md for the method).
@@ -140,6 +160,11 @@ class IdentifyOptions:
         Attach a noise model (Kalman gain ``K`` and innovation covariance) to the
         selected model, estimated from its residuals on the estimation record
         (docs/noise_model.md); it leaves ``A, B, C, D`` and the path unchanged.
+    delays : int, sequence of int or "auto", default 0
+        Dead time of each input in samples (one int: every input): the model is
+        estimated on the shifted inputs and carries them (``model.input_delays``).
+        "auto": per input, the smallest over the outputs of
+        :func:`moli.estimate_delays` on the estimation record (docs/diagnostics.md §3).
 
     Examples
     --------
@@ -171,6 +196,7 @@ class IdentifyOptions:
     center: bool = True
     x0: str = "zero"
     noise_model: bool = True
+    delays: int | tuple[int, ...] | str = 0
 
     def __post_init__(self) -> None:
         radius = self.max_radius
@@ -203,6 +229,7 @@ class IdentifyOptions:
             "center": _flag("center", self.center),
             "x0": _choice("x0", self.x0, X0_CHOICES),
             "noise_model": _flag("noise_model", self.noise_model),
+            "delays": _delays(self.delays),
         }
         for name, value in checked.items():
             object.__setattr__(self, name, value)
@@ -243,6 +270,8 @@ class IdentifyOptions:
         out = asdict(self)
         if self.omega is not None:
             out["omega"] = [list(pair) for pair in self.omega]
+        if isinstance(self.delays, tuple):
+            out["delays"] = list(self.delays)
         return out
 
     @classmethod

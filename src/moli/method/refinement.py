@@ -30,6 +30,7 @@ from ..data.iodata import IOData
 from ..errors import DataError, OptionError
 from .estimation import _filter_companion
 from .filters import divisors
+from ..models.delays import shift_inputs
 from ..models.statespace import StateSpaceModel
 from ..models.simulation import free_response, simulate_batch
 
@@ -275,7 +276,8 @@ def refine(
     if (data.p, data.m) != (model.p, model.m):
         raise DataError(f"model has {model.p} outputs and {model.m} inputs, data {data.p} and {data.m}")
     form = observer_form(model)
-    problem = _Problem(form, data.u, data.y, fit_x0)
+    # a model with input delays is refined on the inputs as its simulation shifts them
+    problem = _Problem(form, shift_inputs(data.u, model.input_delays), data.y, fit_x0)
     theta0 = problem.pack(form, np.zeros(model.n))
     theta = theta0.copy()
     yhat, _, _ = problem.simulate(theta)

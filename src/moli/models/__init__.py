@@ -1,5 +1,8 @@
-"""The identified model: a discrete-time state-space model, its simulation, save and load."""
+"""The identified model: a discrete-time state-space model, its simulation, save and load;
+its frequency response, input delays and continuous-time form."""
 
-from .statespace import StateSpaceModel, load_model, model_from_dict
+from .continuous import ContinuousModel
+from .statespace import StateSpaceModel
+from .storage import load_model, model_from_dict
 
-__all__ = ["StateSpaceModel", "load_model", "model_from_dict"]
+__all__ = ["StateSpaceModel", "ContinuousModel", "load_model", "model_from_dict"]

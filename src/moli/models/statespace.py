@@ -11,10 +11,12 @@ import numpy as np
 
 from .._version import __version__
 from ..data.iodata import as_signal
-from ..errors import DataError, ModelFileError, OptionError, UnstableModelWarning
+from ..errors import DataError, OptionError, UnstableModelWarning
+from .delays import check_delays, delay_states, shift_inputs
+from .frequency import check_omega, frequency_response
 from .simulation import simulate_batch
 
-__all__ = ["StateSpaceModel", "model_from_dict", "load_model"]
+__all__ = ["StateSpaceModel"]
 
 FILE_FORMAT = "moli-model"
 
@@ -155,7 +157,7 @@ class StateSpaceModel:
             A, B, C, D, Ts=self.Ts, output_names=self.output_names, input_names=self.input_names,
             indices=self.indices, alpha=self.alpha if divisors is None else None,
             y_offset=self.y_offset, u_offset=self.u_offset, info=info, divisors=divisors,
-        )
+        ).with_input_delays(self.input_delays)
 
     @property
     def n(self) -> int:
@@ -182,7 +184,9 @@ class StateSpaceModel:
         Parameters
         ----------
         u : array_like, shape (N, m)
-            Input deviations, time along axis 0 (1-D accepted when m = 1).
+            Input deviations, time along axis 0 (1-D accepted when m = 1). With
+            :attr:`input_delays`, input ``j`` acts ``input_delays[j]`` samples late
+            (zero before the record).
         x0 : array_like, shape (n,), optional
             Initial state; zero by default.
 
@@ -190,7 +194,7 @@ class StateSpaceModel:
         -------
         ndarray, shape (N, p)
         """
-        uu = as_signal("u", u, self.m)
+        uu = shift_inputs(as_signal("u", u, self.m), self.input_delays)
         start = None
         if x0 is not None:
             start = np.array(x0, dtype=float).reshape(-1)
@@ -229,10 +233,11 @@ class StateSpaceModel:
                 stacklevel=stacklevel + 1,
             )
 
-    def to_control(self, noise: bool = False):  # -> control.StateSpace
+    def to_control(self, noise: bool = False, continuous: bool = False):  # -> control.StateSpace
         """Convert to a python-control ``StateSpace`` with the channel names.
 
         Requires the optional dependency ``control`` (``pip install control``).
+        Input delays become states (:meth:`delays_as_states`).
 
         Parameters
         ----------
@@ -240,24 +245,35 @@ class StateSpaceModel:
             False: the deterministic part (inputs ``u``). True: the innovations form,
             with inputs ``[u, e]`` (``e`` named ``e@<output>``, covariance
             ``noise_cov``), ``B = [B, K]`` and ``D = [D, I]``; needs a noise model.
+        continuous : bool, default False
+            Convert :meth:`to_continuous` (zero-order hold) instead; deterministic part only.
         """
-        if not isinstance(noise, bool):
-            raise OptionError(f"noise must be True or False, got {noise!r}")
+        if not isinstance(noise, bool) or not isinstance(continuous, bool):
+            raise OptionError(f"noise and continuous must be True or False, got {noise!r} and {continuous!r}")
         if noise and self.K is None:
             raise OptionError("to_control(noise=True) needs a noise model, and model.K is None")
+        if noise and continuous:
+            raise OptionError("to_control gives the noise channels in discrete time only: "
+                              "pass noise=True or continuous=True, not both")
+        if continuous:
+            return self.to_continuous().to_control()
         try:
             import control
         except ImportError as exc:  # pragma: no cover - depends on the environment
             raise ImportError("to_control() needs python-control: pip install control") from exc
+        model = self.delays_as_states()
         if noise:
+            # innovations do not enter the delay lines: K's rows for those states are zero
+            K = np.zeros((model.n, self.p))
+            K[: self.n] = self.K
             return control.ss(
-                self.A, np.hstack([self.B, self.K]), self.C, np.hstack([self.D, np.eye(self.p)]), self.Ts,
+                model.A, np.hstack([model.B, K]), model.C, np.hstack([model.D, np.eye(self.p)]), self.Ts,
                 inputs=[*self.input_names, *(f"e@{name}" for name in self.output_names)],
                 outputs=list(self.output_names),
             )
         return control.ss(
-            self.A, self.B, self.C, self.D, self.Ts,
-            inputs=list(self.input_names), outputs=list(self.output_names),
+            model.A, model.B, model.C, model.D, model.Ts,
+            inputs=list(model.input_names), outputs=list(model.output_names),
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -274,53 +290,121 @@ class StateSpaceModel:
             "y_offset": self.y_offset.tolist(), "u_offset": self.u_offset.tolist(),
             "K": None if self.K is None else self.K.tolist(),
             "noise_cov": None if self.noise_cov is None else self.noise_cov.tolist(),
-            "info": self.info,
+            "info": self.info, "input_delays": list(self.input_delays),
         }
 
     def save(self, path: str | Path) -> None:
         """Write the model to a JSON file (read it back with :func:`moli.load_model`)."""
         Path(path).write_text(json.dumps(self.to_dict(), indent=1))
 
+    # Delays, frequency response and continuous time (docs/diagnostics.md). The delays
+    # are set by with_input_delays on a copy, so the constructor keeps its signature.
+    _input_delays: tuple[int, ...] | None = None
 
-def model_from_dict(content: dict[str, Any]) -> StateSpaceModel:
-    """Rebuild a model from :meth:`StateSpaceModel.to_dict` output, checking it."""
-    if not isinstance(content, dict) or content.get("format") != FILE_FORMAT:
-        raise ModelFileError("not a moli model file (missing 'format': 'moli-model')")
-    major = str(content.get("version", "")).split(".")[0]
-    if major != __version__.split(".")[0]:
-        raise ModelFileError(
-            f"model file written by moli {content.get('version')}, which this moli "
-            f"{__version__} cannot read"
+    @property
+    def input_delays(self) -> tuple[int, ...]:
+        """Dead time of each input in samples (zeros unless set by :meth:`with_input_delays`)."""
+        return self._input_delays if self._input_delays is not None else (0,) * self.m
+
+    def with_input_delays(self, delays: int | Sequence[int]) -> "StateSpaceModel":
+        """A copy whose input ``j`` acts ``delays[j]`` samples late (one int: every input).
+
+        Examples
+        --------
+        >>> m = StateSpaceModel([[0.5]], [[1.0]], [[1.0]]).with_input_delays([2])
+        >>> m.input_delays, m.simulate([1.0, 0.0, 0.0, 0.0]).ravel()
+        ((2,), array([0., 0., 0., 1.]))
+        """
+        checked = check_delays(delays, self.m)
+        # a copy of every attribute, not a constructor call: nothing the model carries is lost
+        copy = StateSpaceModel.__new__(StateSpaceModel)
+        copy.__dict__.update(
+            {key: value.copy() if isinstance(value, np.ndarray) else value
+             for key, value in self.__dict__.items()},
+            info=dict(self.info), _input_delays=checked,
         )
-    try:
-        return StateSpaceModel(
-            content["A"], content["B"], content["C"], content["D"], content["Ts"],
-            content["output_names"], content["input_names"], content.get("indices"),
-            content.get("alpha"), content.get("y_offset"), content.get("u_offset"),
-            content.get("info"), divisors=content.get("divisors"),
-            K=content.get("K"), noise_cov=content.get("noise_cov"),  # absent in older files
-        )
-    except KeyError as exc:
-        raise ModelFileError(f"model file lacks the field {exc}") from None
-    except DataError as exc:
-        raise ModelFileError(f"model file is inconsistent: {exc}") from None
+        return copy
 
+    def delays_as_states(self) -> "StateSpaceModel":
+        """The same input-output model with its delays as shift-register states, no delays.
 
-def load_model(path: str | Path) -> StateSpaceModel:
-    """Read a model written by :meth:`StateSpaceModel.save`.
+        The model itself when it has none; the copy has no structure (indices, filters).
+        """
+        if not any(self.input_delays):
+            return self
+        A, B, C, D = delay_states(self.A, self.B, self.C, self.D, self.input_delays)
+        return StateSpaceModel(A, B, C, D, self.Ts, self.output_names, self.input_names,
+                               y_offset=self.y_offset, u_offset=self.u_offset, info=dict(self.info))
 
-    Parameters
-    ----------
-    path : str or Path
+    def frequency_response(self, omega: object) -> np.ndarray:
+        """Frequency response ``C (zI - A)^-1 B + D`` at ``z = exp(1j omega Ts)``, with the delays.
 
-    Returns
-    -------
-    StateSpaceModel
-    """
-    try:
-        content = json.loads(Path(path).read_text())
-    except FileNotFoundError:
-        raise ModelFileError(f"no model file at {path}") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise ModelFileError(f"{path} is not a JSON model file: {exc}") from None
-    return model_from_dict(content)
+        Parameters
+        ----------
+        omega : array_like, shape (F,)
+            Frequencies in rad per time unit of ``Ts`` (Nyquist: ``pi / Ts``).
+
+        Returns
+        -------
+        ndarray of complex, shape (F, p, m)
+            Entry ``[f, i, j]``: from input ``j`` to output ``i`` at ``omega[f]``.
+
+        Examples
+        --------
+        >>> m = StateSpaceModel([[0.5]], [[1.0]], [[1.0]])
+        >>> m.frequency_response([0.0])     # static gain 1 / (1 - 0.5)
+        array([[[2.+0.j]]])
+        """
+        w = check_omega(omega)
+        delays = self.Ts * np.asarray(self.input_delays, dtype=float)
+        return frequency_response(self.A, self.B, self.C, self.D, np.exp(1j * w * self.Ts), w, delays)
+
+    def to_continuous(self, method: str = "zoh"):  # -> ContinuousModel
+        """The continuous-time model this model samples, by zero-order hold or Tustin.
+
+        Parameters
+        ----------
+        method : {"zoh", "tustin"}
+            "zoh": matrix logarithm of ``[[A, B], [0, I]]``, divided by ``Ts``; needs
+            no pole at ``z = 0`` or on the negative real axis (:class:`DataError`
+            otherwise). "tustin": inverse of ``s = (2/Ts)(z-1)/(z+1)``; needs no
+            pole at ``z = -1``.
+
+        Returns
+        -------
+        moli.models.ContinuousModel
+            With the channel names, offsets, and delays in time units.
+
+        Examples
+        --------
+        >>> round(float(StateSpaceModel([[0.5]], [[1.0]], [[1.0]], Ts=0.1).to_continuous().A[0, 0]), 6)
+        -6.931472
+        """
+        from .continuous import to_continuous
+
+        return to_continuous(self, method)
+
+    @classmethod
+    def from_continuous(
+        cls, A: object, B: object, C: object, D: object | None = None, Ts: float = 1.0,
+        method: str = "zoh", *, output_names: Sequence[str] | None = None,
+        input_names: Sequence[str] | None = None, y_offset: object | None = None,
+        u_offset: object | None = None,
+    ) -> "StateSpaceModel":
+        """Sample the continuous model ``x' = A x + B u``, ``y = C x + D u`` at period ``Ts``.
+
+        ``method="zoh"``: ``[[Ad, Bd], [0, I]] = expm([[A, B], [0, 0]] Ts)`` (inputs held
+        over each period); ``"tustin"``: the bilinear map. Inverse of :meth:`to_continuous`.
+
+        Examples
+        --------
+        >>> m = StateSpaceModel.from_continuous([[-1.0]], [[1.0]], [[1.0]], Ts=0.5)
+        >>> round(float(m.A[0, 0]), 6), round(float(m.B[0, 0]), 6)     # exp(-0.5), 1 - exp(-0.5)
+        (0.606531, 0.393469)
+        """
+        from .continuous import discretize
+
+        checked = cls(A, B, C, D, Ts)  # the constructor's shape, finiteness and Ts checks
+        Ad, Bd, Cd, Dd = discretize(checked.A, checked.B, checked.C, checked.D, checked.Ts, method)
+        return cls(Ad, Bd, Cd, Dd, checked.Ts, output_names, input_names,
+                   y_offset=y_offset, u_offset=u_offset)

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..data.iodata import IOData
 from ..errors import DataError, OptionError
+from ..models.delays import shift_inputs
 from ..models.simulation import free_response, simulate_batch
 from ..models.statespace import StateSpaceModel
 
@@ -45,7 +46,10 @@ def check_horizon(model: StateSpaceModel, horizon: object) -> int | None:
 
 
 def deviations(model: StateSpaceModel, data: IOData) -> tuple[np.ndarray, np.ndarray]:
-    """``data``'s inputs and outputs as deviations from the model's operating point."""
+    """``data``'s inputs and outputs as deviations from the model's operating point.
+
+    The inputs are as recorded: the model's own methods apply its input delays.
+    """
     if not isinstance(data, IOData):
         raise DataError(f"data must be an IOData, got {type(data).__name__}")
     if (data.p, data.m) != (model.p, model.m):
@@ -53,6 +57,17 @@ def deviations(model: StateSpaceModel, data: IOData) -> tuple[np.ndarray, np.nda
             f"model has {model.p} outputs and {model.m} inputs, data have {data.p} and {data.m}"
         )
     return data.u + data.u_offset - model.u_offset, data.y + data.y_offset - model.y_offset
+
+
+def _delay_free(model: StateSpaceModel, u: np.ndarray) -> tuple[StateSpaceModel, np.ndarray]:
+    """The model without its input delays, and the inputs shifted by them instead.
+
+    The predictor's recursions use ``A`` and ``B`` directly, on inputs that already
+    carry the dead times.
+    """
+    if not any(model.input_delays):
+        return model, u
+    return model.with_input_delays(0), shift_inputs(u, model.input_delays)
 
 
 def _states(A: np.ndarray, B: np.ndarray, signal: np.ndarray, x0: np.ndarray | None) -> np.ndarray:
@@ -104,6 +119,7 @@ def initial_state(model: StateSpaceModel, u: np.ndarray, y: np.ndarray, horizon:
     -------
     ndarray, shape (n,)
     """
+    model, u = _delay_free(model, u)
     N, n = y.shape[0], model.n
     if horizon is None or horizon > N - 1:
         forced = model.simulate(u)
@@ -125,6 +141,7 @@ def predicted_deviations(
 
     ``horizon`` and ``x0`` must already be checked (:func:`check_horizon`, :data:`X0_CHOICES`).
     """
+    model, u = _delay_free(model, u)
     start = initial_state(model, u, y, horizon) if x0 == "estimate" else np.zeros(model.n)
     if horizon is None:
         return model.simulate(u, start), start

@@ -1,0 +1,244 @@
+"""Continuous-time models: from a sampled model and back (zero-order hold or Tustin).
+
+A sampled model becomes a :class:`ContinuousModel`, a small class of its own rather
+than a flag on :class:`~moli.models.statespace.StateSpaceModel`: simulation, the
+filters, structure indices and the refinement of that class are all discrete time,
+and a continuous model has none of them (docs/diagnostics.md §2).
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+from ..errors import DataError, OptionError
+from .frequency import check_omega, frequency_response
+from .statespace import StateSpaceModel
+
+__all__ = ["ContinuousModel", "CONVERSION_METHODS", "to_continuous", "discretize"]
+
+CONVERSION_METHODS = ("zoh", "tustin")
+# Poles closer than this (relative to the model's scale) to z = 0, or to the negative
+# real axis in angle, have no real continuous-time counterpart worth trusting: the
+# logarithm there is infinite or complex, and round-off of order sqrt(eps) in a
+# computed eigenvalue can move it across the branch cut.
+POLE_TOLERANCE = float(np.sqrt(np.finfo(float).eps))
+
+
+@dataclass(frozen=True, eq=False)
+class ContinuousModel:
+    """Continuous-time model ``x' = A x + B u(t - tau)``, ``y = C x + D u(t - tau)``.
+
+    Built by :meth:`StateSpaceModel.to_continuous`; acts on deviations from the
+    operating point ``(u_offset, y_offset)`` like the sampled model it came from.
+
+    Attributes
+    ----------
+    A, B, C, D : ndarray
+        Shapes (n, n), (n, m), (p, n), (p, m).
+    output_names, input_names : tuple of str
+    y_offset, u_offset : ndarray
+    input_delays : tuple of float
+        Dead time ``tau_j`` of each input in time units (the sampled model's delay in
+        samples times its ``Ts``).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> sampled = StateSpaceModel([[np.exp(-0.5)]], [[1 - np.exp(-0.5)]], [[1.0]], Ts=0.5)
+    >>> model = sampled.to_continuous()
+    >>> np.round(model.A, 12), np.round(model.B, 12)
+    (array([[-1.]]), array([[1.]]))
+    >>> np.allclose(model.to_discrete(0.5).A, sampled.A)
+    True
+    """
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+    D: np.ndarray
+    output_names: tuple[str, ...]
+    input_names: tuple[str, ...]
+    y_offset: np.ndarray
+    u_offset: np.ndarray
+    input_delays: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        n, m, p = self.A.shape[0], self.B.shape[1], self.C.shape[0]
+        shapes = {"A": (n, n), "B": (n, m), "C": (p, n), "D": (p, m)}
+        for name, shape in shapes.items():
+            if getattr(self, name).shape != shape:
+                raise DataError(f"{name} must have shape {shape}, got {getattr(self, name).shape}")
+        if (len(self.output_names), len(self.input_names), len(self.input_delays)) != (p, m, m):
+            raise DataError(f"need {p} output names, {m} input names and {m} input delays")
+
+    @property
+    def n(self) -> int:
+        """Order (number of states)."""
+        return self.A.shape[0]
+
+    @property
+    def p(self) -> int:
+        """Number of outputs."""
+        return self.C.shape[0]
+
+    @property
+    def m(self) -> int:
+        """Number of inputs."""
+        return self.B.shape[1]
+
+    def __repr__(self) -> str:
+        return f"ContinuousModel(n={self.n}, p={self.p}, m={self.m}, stable={self.is_stable()})"
+
+    def poles(self) -> np.ndarray:
+        """Eigenvalues of ``A`` (continuous time, rad per time unit)."""
+        return np.linalg.eigvals(self.A)
+
+    def is_stable(self) -> bool:
+        """True when every pole has a negative real part."""
+        return bool(self.n == 0 or np.max(self.poles().real) < 0.0)
+
+    def frequency_response(self, omega: object) -> np.ndarray:
+        """``C (j omega I - A)^-1 B + D``, times ``exp(-j omega tau_j)`` per input: shape (F, p, m).
+
+        Parameters
+        ----------
+        omega : array_like
+            Frequencies in rad per time unit.
+        """
+        w = check_omega(omega)
+        return frequency_response(self.A, self.B, self.C, self.D, 1j * w, w, self.input_delays)
+
+    def to_discrete(self, Ts: float, method: str = "zoh") -> StateSpaceModel:
+        """The sampled model at period ``Ts`` (see :meth:`StateSpaceModel.from_continuous`).
+
+        The input delays must be whole multiples of ``Ts``; they become delays in samples.
+        """
+        model = StateSpaceModel.from_continuous(
+            self.A, self.B, self.C, self.D, Ts, method, output_names=self.output_names,
+            input_names=self.input_names, y_offset=self.y_offset, u_offset=self.u_offset,
+        )
+        samples = np.asarray(self.input_delays, dtype=float) / model.Ts
+        whole = np.round(samples)
+        if np.any(np.abs(samples - whole) > 1e-9 * np.maximum(1.0, whole)):
+            raise DataError(
+                f"input delays {list(self.input_delays)} are not whole multiples of Ts = {model.Ts:g}; "
+                "sample at a period that divides them"
+            )
+        return model.with_input_delays([int(d) for d in whole])
+
+    def to_control(self):  # -> control.StateSpace
+        """Convert to a continuous python-control ``StateSpace`` with the channel names.
+
+        Requires the optional dependency ``control``. python-control's state-space
+        models have no dead time: a model with input delays raises :class:`DataError`
+        (approximate them with ``control.pade`` if needed).
+        """
+        if any(self.input_delays):
+            raise DataError(
+                f"the model has input delays {list(self.input_delays)}, which a python-control "
+                "StateSpace cannot hold: approximate them with control.pade, or convert the "
+                "sampled model (to_control() keeps its delays as states)"
+            )
+        try:
+            import control
+        except ImportError as exc:  # pragma: no cover - depends on the environment
+            raise ImportError("to_control() needs python-control: pip install control") from exc
+        return control.ss(self.A, self.B, self.C, self.D,
+                          inputs=list(self.input_names), outputs=list(self.output_names))
+
+
+def _method(method: object) -> str:
+    if method not in CONVERSION_METHODS:
+        raise OptionError(f"method must be one of {CONVERSION_METHODS}, got {method!r}")
+    return str(method)
+
+
+def to_continuous(model: StateSpaceModel, method: str = "zoh") -> ContinuousModel:
+    """The continuous model whose sampling by ``method`` at ``model.Ts`` is ``model``.
+
+    "zoh": ``[[Ac, Bc], [0, 0]] = logm([[A, B], [0, I]]) / Ts`` (the inverse of the
+    zero-order hold); "tustin": the inverse of the bilinear map ``s = (2/Ts)(z-1)/(z+1)``.
+    """
+    kind = _method(method)
+    inverse = _zoh_inverse if kind == "zoh" else _tustin_inverse
+    Ac, Bc, Cc, Dc = inverse(model)
+    return ContinuousModel(
+        Ac, Bc, Cc, Dc, model.output_names, model.input_names, model.y_offset.copy(),
+        model.u_offset.copy(), tuple(float(d * model.Ts) for d in model.input_delays),
+    )
+
+
+def _scale(A: np.ndarray) -> float:
+    return max(1.0, float(np.linalg.norm(A, 2))) if A.size else 1.0
+
+
+def _zoh_inverse(model: StateSpaceModel) -> tuple[np.ndarray, ...]:
+    A, B, n, m = model.A, model.B, model.n, model.m
+    poles = model.poles()
+    near_zero = np.abs(poles) <= POLE_TOLERANCE * _scale(A)
+    bad = near_zero | (np.abs(np.angle(poles)) >= np.pi - POLE_TOLERANCE)
+    logarithm = None
+    if not np.any(bad):
+        block = np.zeros((n + m, n + m))
+        block[:n, :n], block[:n, n:], block[n:, n:] = A, B, np.eye(m)
+        with warnings.catch_warnings():
+            # scipy notes any error estimate above 1000 eps; the imaginary part is checked below
+            warnings.simplefilter("ignore", RuntimeWarning)
+            logarithm = scipy.linalg.logm(block) / model.Ts
+        size = max(1.0, float(np.max(np.abs(logarithm))))
+        if np.max(np.abs(np.imag(logarithm))) > 1e-9 * size:
+            # a negative real pole the tolerance let through: its logarithm is complex
+            bad = np.abs(np.angle(poles)) == np.max(np.abs(np.angle(poles)))
+            logarithm = None
+    if logarithm is None:
+        z = poles[np.argmax(bad)]
+        where = "at z = 0" if near_zero[np.argmax(bad)] else "on the negative real axis"
+        raise DataError(
+            f"to_continuous(method='zoh') has no real solution: the model has a pole {where} "
+            f"(z = {z.real:.4g}{z.imag:+.4g}j), which no zero-order hold of a continuous system "
+            "produces. Use method='tustin', or resample (identify from data sampled so that no "
+            "mode sits at z = 0 or at the Nyquist frequency)"
+        )
+    real = np.real(logarithm)
+    return real[:n, :n].copy(), real[:n, n:].copy(), model.C.copy(), model.D.copy()
+
+
+def _tustin_inverse(model: StateSpaceModel) -> tuple[np.ndarray, ...]:
+    A, B, C, D, Ts, n = model.A, model.B, model.C, model.D, model.Ts, model.n
+    if n and np.min(np.abs(model.poles() + 1.0)) <= POLE_TOLERANCE * _scale(A):
+        raise DataError(
+            "to_continuous(method='tustin') has no solution: the model has a pole at z = -1, "
+            "which the bilinear map sends to infinity. Use method='zoh', or resample the data"
+        )
+    shifted = A + np.eye(n)
+    # Ac = (2/Ts)(A - I)(A + I)^-1 (the factors commute), Bc = (2/Ts)(A + I)^-1 B,
+    # Cc = 2 C (A + I)^-1, Dc = D - Cc B / 2: solves, no inverse formed
+    Ac = (2.0 / Ts) * np.linalg.solve(shifted.T, (A - np.eye(n)).T).T
+    Bc = (2.0 / Ts) * np.linalg.solve(shifted, B)
+    Cc = 2.0 * np.linalg.solve(shifted.T, C.T).T
+    return Ac, Bc, Cc, D - 0.5 * Cc @ B
+
+
+def discretize(
+    A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, Ts: float, method: str = "zoh"
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Sampled matrices of a continuous model: zero-order hold (``expm`` of the block
+    matrix ``[[A, B], [0, 0]] Ts``) or Tustin (``s = (2/Ts)(z-1)/(z+1)``)."""
+    kind = _method(method)
+    n, m = B.shape
+    if kind == "zoh":
+        block = np.zeros((n + m, n + m))
+        block[:n, :n], block[:n, n:] = A * Ts, B * Ts
+        exponential = scipy.linalg.expm(block)
+        return exponential[:n, :n], exponential[:n, n:], C.copy(), D.copy()
+    half = np.eye(n) - 0.5 * Ts * A
+    if n and np.linalg.cond(half) > 1.0 / np.finfo(float).eps:
+        raise DataError(f"method='tustin' has no solution: A has an eigenvalue at 2/Ts = {2 / Ts:g}")
+    Ad = np.linalg.solve(half, np.eye(n) + 0.5 * Ts * A)
+    Bd = np.linalg.solve(half, Ts * B)
+    Cd = np.linalg.solve(half.T, C.T).T
+    return Ad, Bd, Cd, D + 0.5 * C @ Bd

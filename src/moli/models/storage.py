@@ -1,0 +1,57 @@
+"""Model files: the JSON a :class:`StateSpaceModel` saves, read back and checked."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from .._version import __version__
+from ..errors import DataError, ModelFileError
+from .statespace import FILE_FORMAT, StateSpaceModel
+
+__all__ = ["model_from_dict", "load_model"]
+
+
+def model_from_dict(content: dict[str, Any]) -> StateSpaceModel:
+    """Rebuild a model from :meth:`StateSpaceModel.to_dict` output, checking it."""
+    if not isinstance(content, dict) or content.get("format") != FILE_FORMAT:
+        raise ModelFileError("not a moli model file (missing 'format': 'moli-model')")
+    major = str(content.get("version", "")).split(".")[0]
+    if major != __version__.split(".")[0]:
+        raise ModelFileError(
+            f"model file written by moli {content.get('version')}, which this moli "
+            f"{__version__} cannot read"
+        )
+    try:
+        return StateSpaceModel(
+            content["A"], content["B"], content["C"], content["D"], content["Ts"],
+            content["output_names"], content["input_names"], content.get("indices"),
+            content.get("alpha"), content.get("y_offset"), content.get("u_offset"),
+            content.get("info"), divisors=content.get("divisors"),
+            K=content.get("K"), noise_cov=content.get("noise_cov"),  # absent in older files
+        ).with_input_delays(content.get("input_delays", 0))
+    except KeyError as exc:
+        raise ModelFileError(f"model file lacks the field {exc}") from None
+    except DataError as exc:
+        raise ModelFileError(f"model file is inconsistent: {exc}") from None
+
+
+def load_model(path: str | Path) -> StateSpaceModel:
+    """Read a model written by :meth:`StateSpaceModel.save`.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    StateSpaceModel
+    """
+    try:
+        content = json.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise ModelFileError(f"no model file at {path}") from None
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise ModelFileError(f"{path} is not a JSON model file: {exc}") from None
+    return model_from_dict(content)
