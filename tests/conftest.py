@@ -36,3 +36,36 @@ def load_shared(name: str) -> moli.IOData:
 @pytest.fixture
 def evaporator() -> moli.IOData:
     return load_shared("evaporator")
+
+
+def _load_script(path: Path):
+    """Import a script of the repository (not a package module) by its path."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location(path.stem, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="session")
+def twin_rotor_docs():
+    """benchmarks/twin_rotor_docs.py, which also loads examples/twin_rotor.py and the seed study."""
+    return _load_script(REPO / "benchmarks" / "twin_rotor_docs.py")
+
+
+@pytest.fixture(scope="session")
+def twin_rotor_study(twin_rotor_docs):
+    """The study of examples/twin_rotor.py for seed 0: model, LQ and PID, both experiments.
+
+    Shared by the control tests and the doc check, so the closed-loop runs happen once.
+    """
+    return twin_rotor_docs.example.run_study(0)
+
+
+@pytest.fixture(scope="session")
+def no_coulomb_seed0(twin_rotor_docs):
+    """Rig without Coulomb friction or quantisation, its seed-0 record and identification."""
+    seeds = twin_rotor_docs.seeds
+    rig = seeds.make_rig("no Coulomb")
+    return (rig, *seeds.identify_seed(rig, 0))

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 __all__ = [
     "MoliError", "DataError", "StructureError", "FilterError", "OptionError", "ModelFileError",
+    "ControlDesignError",
     "UnstableModelWarning", "IllConditionedWarning", "DataQualityWarning", "OrderBoundWarning",
     "ClosedLoopWarning",
 ]
@@ -35,6 +36,10 @@ class OptionError(MoliError):
 
 class ModelFileError(MoliError):
     """A saved model file is unreadable or inconsistent."""
+
+
+class ControlDesignError(MoliError):
+    """A controller cannot be designed or built with the given model or settings."""
 
 
 class UnstableModelWarning(UserWarning):

@@ -8,7 +8,8 @@ from typing import Protocol, Sequence
 import numpy as np
 
 from ..systems.experiment import SampledPlant
-from .lq import ControlDesignError
+from ..errors import ControlDesignError
+from .limits import input_bounds
 
 __all__ = [
     "Controller", "setpoint_steps", "ClosedLoopRun", "closed_loop", "StepMetrics",
@@ -110,12 +111,16 @@ class StepMetrics:
     coupling : float
         Largest deviation of each other output from its value at the step, percent of
         the step size (the largest over the other outputs).
+    iae : float
+        Integral of the absolute error of the channel over the window (output units
+        times seconds).
     """
 
     settling_time: float
     overshoot: float
     steady_state_error: float
     coupling: float
+    iae: float
 
 
 
@@ -164,5 +169,41 @@ def step_metrics(
         overshoot=float(max(0.0, np.max(err)) * 100),
         steady_state_error=float(np.mean(y[stop - last : stop, channel] - r[stop - last : stop, channel])),
         coupling=float(coupling * 100),
+        iae=float(np.sum(np.abs(y[start:stop, channel] - r[start:stop, channel])) * Ts),
     )
+
+
+
+def time_saturated(run: ClosedLoopRun, u_limits: object, start: int = 0, stop: int | None = None) -> np.ndarray:
+    """Seconds each input spends at one of its bounds over samples ``start:stop``.
+
+    Parameters
+    ----------
+    run : ClosedLoopRun
+    u_limits : array_like, shape (2,) or (m, 2)
+        The actuator's bounds ``(low, high)``, e.g. the rig's +-2.5 V.
+    start, stop : int, optional
+        Window of samples; the whole run by default.
+
+    Returns
+    -------
+    ndarray, shape (m,)
+
+    Examples
+    --------
+    >>> run = ClosedLoopRun(t=np.arange(4) * 0.1, y=np.zeros((4, 1)), r=np.zeros((4, 1)),
+    ...                     u=np.array([[0.0], [2.5], [3.0], [-2.5]]))
+    >>> time_saturated(run, (-2.5, 2.5)).round(6)
+    array([0.3])
+    """
+    u = run.u
+    limits = input_bounds(u_limits, u.shape[1])
+    stop = len(u) if stop is None else stop
+    if not 0 <= start < stop <= len(u):
+        raise ControlDesignError(f"need 0 <= start < stop <= {len(u)}, got start={start}, stop={stop}")
+    window = u[start:stop]
+    # An input counts as saturated at or beyond its bound: a controller may command
+    # more than the actuator delivers.
+    held = (window <= limits[:, 0]) | (window >= limits[:, 1])
+    return held.sum(axis=0) * float(run.t[1] - run.t[0])
 

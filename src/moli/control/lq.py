@@ -4,7 +4,8 @@ The design follows the CDC 2015 twin rotor experiment: state feedback with integ
 action, weights from Bryson's rule, a Luenberger observer by pole placement. Gains
 come from python-control (``dlqr``, ``place``). Controllers run in absolute units:
 they subtract the model's operating point from the measurements and add it back to
-the inputs.
+the inputs. They respect input bounds and rate limits, with anti-windup per channel
+(:mod:`moli.control.limits`).
 """
 
 from __future__ import annotations
@@ -15,18 +16,14 @@ from typing import Sequence
 
 import numpy as np
 
-from ..errors import MoliError
+from ..errors import ControlDesignError
 from ..models.statespace import StateSpaceModel
+from .limits import input_bounds, integrating, integrator_pairing, rate_bounds
 
 __all__ = [
     "ControlDesignError", "bryson", "continuous_poles", "sector_poles", "ServoController",
     "servo_weights", "lq_servo",
 ]
-
-
-class ControlDesignError(MoliError):
-    """A controller cannot be designed with the given model or settings."""
-
 
 
 def _control():
@@ -110,16 +107,18 @@ def sector_poles(n: int, radius: float, half_angle: float = np.pi / 4) -> np.nda
 
 @dataclass
 class ServoController:
-    """Discrete LQ servo with integral action and a current Luenberger observer.
+    """Discrete LQ servo with integral action, a current observer and actuator limits.
 
     At each sample, with ``y`` and ``r`` the measured outputs and set-points
     (deviations from the model's operating point):
 
     - observer update ``xh = xb + M (y - C xb)``;
-    - control ``u = -K xh - Ki xi``, saturated to ``u_limits``;
-    - integrator ``xi <- xi + Ts (y - r)``, frozen while the input saturates
-      (anti-windup);
-    - prediction ``xb <- A xh + B u``.
+    - control ``u_free = -K xh - Ki xi``, clipped to ``u_limits`` and to
+      ``rate_limits * Ts`` around the previous input;
+    - integrator ``xi <- xi + Ts (y - r)``, except for the integrators whose
+      paired input is limited and would be pushed further past its limit
+      (conditional integration per channel, see :mod:`moli.control.limits`);
+    - prediction ``xb <- A xh + B u`` with the input actually applied.
 
     Build it with :func:`lq_servo`.
 
@@ -133,7 +132,13 @@ class ServoController:
     Q, R : ndarray
         LQ weights of the augmented state ``(x, xi)`` and of the inputs.
     u_limits : ndarray, shape (m, 2)
-        Absolute input bounds.
+        Absolute input bounds ``(low, high)``.
+    rate_limits : ndarray, shape (m,)
+        Largest input change per second (``inf``: none). The input before the
+        first sample is taken as the model's ``u_offset``.
+    pairing : ndarray of int, shape (p,)
+        Input paired with each output's integrator (see
+        :func:`~moli.control.limits.integrator_pairing`).
     """
 
     model: StateSpaceModel
@@ -143,16 +148,29 @@ class ServoController:
     Q: np.ndarray
     R: np.ndarray
     u_limits: np.ndarray
+    rate_limits: np.ndarray | None = None
+    pairing: np.ndarray | None = None
     _xb: np.ndarray = field(init=False, repr=False)
     _xi: np.ndarray = field(init=False, repr=False)
+    _u: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
+        m = self.model.m
+        self.u_limits = input_bounds(self.u_limits, m)
+        self.rate_limits = rate_bounds(self.rate_limits, m)
+        self.pairing = integrator_pairing(self.Ki, self.pairing)
         self.reset()
 
     def reset(self) -> None:
-        """Zero the observer and integrator states."""
+        """Zero the observer and integrator states; the last input is the operating point."""
         self._xb = np.zeros(self.model.n)
         self._xi = np.zeros(self.model.p)
+        self._u = np.clip(self.model.u_offset, self.u_limits[:, 0], self.u_limits[:, 1])
+
+    @property
+    def integrator(self) -> np.ndarray:
+        """Integrated output errors ``xi`` (output units times seconds), a copy."""
+        return self._xi.copy()
 
     def update(self, y: np.ndarray, r: np.ndarray) -> np.ndarray:
         """Absolute input for measured outputs ``y`` and set-points ``r`` (absolute)."""
@@ -161,10 +179,14 @@ class ServoController:
         dr = np.asarray(r, float) - mdl.y_offset
         xh = self._xb + self.M @ (dy - mdl.C @ self._xb)
         u_free = mdl.u_offset - self.K @ xh - self.Ki @ self._xi
-        u = np.clip(u_free, self.u_limits[:, 0], self.u_limits[:, 1])
-        if np.allclose(u, u_free):
-            self._xi = self._xi + mdl.Ts * (dy - dr)
+        move = self.rate_limits * mdl.Ts
+        low = np.maximum(self.u_limits[:, 0], self._u - move)
+        high = np.minimum(self.u_limits[:, 1], self._u + move)
+        u = np.clip(u_free, low, high)
+        error = dy - dr
+        self._xi = self._xi + mdl.Ts * error * integrating(self.Ki, self.pairing, error, u_free - u)
         self._xb = mdl.A @ xh + mdl.B @ (u - mdl.u_offset)
+        self._u = u
         return u
 
     def augmented(self) -> tuple[np.ndarray, np.ndarray]:
@@ -252,6 +274,8 @@ def lq_servo(
     observer_poles: Sequence[complex] | None = None,
     observer_bandwidth: float = 12.0,
     u_limits: object = (-2.5, 2.5),
+    rate_limits: object = None,
+    pairing: Sequence[int] | None = None,
 ) -> ServoController:
     """Design an LQ servo (integral action) and a Luenberger observer for ``model``.
 
@@ -271,8 +295,17 @@ def lq_servo(
         The default is the magnitude of the paper's observer poles (12.7-16.2 rad/s),
         several times faster than the closed loop and below the Nyquist frequency
         of Ts = 0.1 s (31 rad/s).
-    u_limits : array_like, shape (2,) or (m, 2)
-        Absolute input bounds, applied in :meth:`ServoController.update`.
+    u_limits : array_like, shape (2,) or (m, 2), default (-2.5, 2.5)
+        Absolute input bounds ``(low, high)``, once for all inputs or once per
+        input (the default is the twin rotor's +-2.5 V); ``inf`` leaves a side open.
+    rate_limits : float or array_like, shape (m,), optional
+        Largest change of each input per second (input units per second); none
+        by default.
+    pairing : sequence of int, shape (p,), optional
+        Input paired with each output's integrator for the anti-windup: while
+        that input is at a limit, the integrator stops if it would push the input
+        further. By default from the relative gain array of the integral gain
+        (:func:`~moli.control.limits.integrator_pairing`).
 
     Returns
     -------
@@ -304,10 +337,10 @@ def lq_servo(
         s_poles = np.asarray(observer_poles, dtype=complex).reshape(-1)
     if s_poles.shape != (n,) or np.any(s_poles.real >= 0):
         raise ControlDesignError(f"need {n} observer poles in the open left half plane, got {s_poles}")
-    limits = np.array(u_limits, dtype=float)
-    limits = np.broadcast_to(limits, (m, 2)).copy() if limits.shape == (2,) else limits
-    if limits.shape != (m, 2) or np.any(limits[:, 0] >= limits[:, 1]):
-        raise ControlDesignError(f"u_limits must be (low, high) per input, got {u_limits!r}")
+    limits = input_bounds(u_limits, m)
+    rates = rate_bounds(rate_limits, m)
+    if pairing is not None:
+        integrator_pairing(np.ones((m, p)), pairing)  # indices checked before the design
     Aa, Ba = _augment(model)
     try:
         gain, _, _ = control.dlqr(Aa, Ba, Q, R)
@@ -325,6 +358,7 @@ def lq_servo(
     if not np.allclose(placed, wanted, atol=1e-6):
         raise ControlDesignError(f"observer poles could not be placed: got {placed}, wanted {wanted}")
     return ServoController(
-        model=model, K=gain[:, :n], Ki=gain[:, n:], M=M, Q=Q, R=R, u_limits=limits
+        model=model, K=gain[:, :n], Ki=gain[:, n:], M=M, Q=Q, R=R, u_limits=limits,
+        rate_limits=rates, pairing=pairing,
     )
 

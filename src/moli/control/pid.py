@@ -42,7 +42,8 @@ class DecentralizedPID:
     u0 : array_like, shape (m,)
         Input around which the loops act (the trim).
     u_limits : array_like, shape (m, 2)
-        Absolute input bounds; the integrators freeze while their input saturates.
+        Absolute input bounds; while its input is at a bound, a loop's integrator
+        stops if integrating would push the input further past it.
     """
 
     gains: Sequence[PIDGains]
@@ -79,8 +80,12 @@ class DecentralizedPID:
             self._deriv[i] = (g.tf * self._deriv[i] - g.kd * (y[out] - last[out])) / (g.tf + self.Ts)
             free = u[inp] + g.kp * e + self._integral[i] + self._deriv[i]
             u[inp] = np.clip(free, *self.u_limits[inp])
-            if u[inp] == free:
-                self._integral[i] += g.ki * self.Ts * e
+            push = g.ki * e  # change of the free input per unit of integration
+            # Integrate unless the input is limited and integrating would push it further
+            # past the limit; freezing in both directions locks a loop without
+            # proportional action (such as the pitch loop, pure integral) at its limit.
+            if u[inp] == free or np.sign(push) != np.sign(free - u[inp]):
+                self._integral[i] += push * self.Ts
         self._last_y = y
         return u
 
