@@ -18,8 +18,8 @@ from typing import TYPE_CHECKING, Any
 
 from ._version import __version__
 from .errors import (
-    DataError, FilterError, IllConditionedWarning, ModelFileError, MoliError, OptionError,
-    StructureError, UnstableModelWarning,
+    DataError, FilterError, IllConditionedWarning, IrregularSamplingWarning, ModelFileError,
+    MoliError, OptionError, StructureError, UnstableModelWarning,
 )
 
 # public name -> the subpackage that defines it
@@ -40,7 +40,7 @@ _SUBPACKAGES = ("data", "models", "validation", "method", "streaming", "systems"
 
 __all__ = [
     "__version__", "MoliError", "DataError", "FilterError", "IllConditionedWarning",
-    "ModelFileError", "OptionError", "StructureError", "UnstableModelWarning",
+    "IrregularSamplingWarning", "ModelFileError", "OptionError", "StructureError", "UnstableModelWarning",
     *_HOMES, *_SUBPACKAGES,
 ]
 

@@ -6,9 +6,11 @@ specific class or the builtin one.
 
 from __future__ import annotations
 
+from typing import Any, Sequence
+
 __all__ = [
     "MoliError", "DataError", "StructureError", "FilterError", "OptionError", "ModelFileError",
-    "UnstableModelWarning", "IllConditionedWarning",
+    "UnstableModelWarning", "IllConditionedWarning", "IrregularSamplingWarning",
 ]
 
 
@@ -43,3 +45,17 @@ class UnstableModelWarning(UserWarning):
 class IllConditionedWarning(UserWarning):
     """A least-squares problem is rank deficient or badly conditioned."""
 
+
+class IrregularSamplingWarning(UserWarning):
+    """A record's time stamps are not evenly spaced; ``gaps`` says where.
+
+    Attributes
+    ----------
+    gaps : tuple
+        One :class:`moli.data.SamplingGap` per irregular step (sample index, the times
+        on either side, the step and the samples it is missing).
+    """
+
+    def __init__(self, message: str, gaps: Sequence[Any] = ()) -> None:
+        super().__init__(message)
+        self.gaps = tuple(gaps)

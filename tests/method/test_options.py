@@ -14,6 +14,7 @@ from moli import IdentifyOptions, OptionError
 # field -> (a value of a wrong type, a value of the right type that is out of range)
 BAD = {
     "nmax": ("8", 0),
+    "order": ("3", 0),
     "order_tolerance": ("1", -0.5),
     "omega": (3.0, [(0.1, -0.7)]),
     "tuning": (1, "grid-search"),

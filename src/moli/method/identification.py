@@ -12,7 +12,7 @@ import numpy as np
 from ..data.iodata import IOData
 from ..errors import DataError, OptionError
 from ..models.statespace import StateSpaceModel
-from ..validation.comparison import compare
+from ..validation.comparison import compare, same_period
 from .estimation import check_sample_count
 from .options import IdentifyOptions
 from .refinement import MAX_RADIUS
@@ -77,6 +77,15 @@ class IdentificationResult:
         """The path step of the selected model."""
         return self.path[self.selected_index]
 
+    @property
+    def selection(self) -> str:
+        """How the selected model was chosen, in words."""
+        opts = self.options
+        if opts.order is not None and self.selected.order == opts.order:
+            return f"the fixed order n = {opts.order} (IdentifyOptions.order)"
+        return (f"lowest order within {opts.order_tolerance:g} point of the best mean "
+                "validation VAF")
+
     def summary(self) -> str:
         """A readable table of the greedy path and the selection."""
         names = self.estimation.output_names
@@ -107,8 +116,7 @@ class IdentificationResult:
             )
         lines.append(
             f"selected: indices {list(self.selected.indices)} (n = {self.selected.order}), "
-            f"lowest order within {opts.order_tolerance:g} point of the best mean "
-            f"validation VAF; total {self.seconds:.2f} s"
+            f"{self.selection}; total {self.seconds:.2f} s"
             + (" (interrupted: partial path)" if self.interrupted else "")
         )
         if self.selected.output_etas is not None:
@@ -183,12 +191,18 @@ def identify(
                 f"validation has {validation.p} outputs and {validation.m} inputs, "
                 f"data have {data.p} and {data.m}"
             )
+        if not same_period(validation.Ts, data.Ts):
+            raise DataError(f"validation is sampled every Ts = {validation.Ts:g}, data every "
+                            f"Ts = {data.Ts:g}; both records must share the sampling period")
         estimation, source = data, "given"
     if opts.center:
         estimation = estimation.remove_means()
         validation = validation.remove_means(estimation.y_offset, estimation.u_offset)
     p = estimation.p
-    nmax = max(10, p + 4) if opts.nmax is None else opts.nmax
+    if opts.order is not None and opts.order < p:
+        raise OptionError(f"IdentifyOptions.order must be at least the number of outputs, {p} "
+                          f"(the path starts at n = p); got {opts.order}")
+    nmax = opts.path_end(p)
     if nmax < p:
         raise OptionError(f"IdentifyOptions.nmax must be at least the number of outputs, {p}; got {nmax}")
     grid = default_omega(estimation.Ts) if opts.omega is None else np.array(opts.omega)
@@ -230,7 +244,9 @@ def identify(
 
     if opts.refine == "path" and not interrupted:
         path[:] = [refined(st) for st in path]
-    selected = select_order(path, opts.order_tolerance)
+    selected = _fixed_order(path, opts.order, interrupted)
+    if selected is None:
+        selected = select_order(path, opts.order_tolerance)
     if opts.refine == "selected":
         path[selected] = refined(path[selected])
     model = path[selected].model
@@ -241,6 +257,23 @@ def identify(
         validation=validation, validation_source=source, options=opts, nmax=nmax, omega=grid,
         max_radius=radius, seconds=time.perf_counter() - start, interrupted=interrupted,
     )
+
+
+def _fixed_order(path: list[PathStep], order: int | None, interrupted: bool) -> int | None:
+    """Position of the path step of the fixed ``order``; None to apply the order rule.
+
+    An interrupted search keeps the best model of the orders done, like one without a
+    fixed order; a complete path that stops short of ``order`` is an error.
+    """
+    if order is None:
+        return None
+    found = [i for i, step in enumerate(path) if step.order == order]
+    if found:
+        return found[0]
+    if interrupted:
+        return None
+    raise DataError(f"IdentifyOptions.order = {order} is not on the greedy path: the record has "
+                    f"too few samples for lists beyond n = {path[-1].order}")
 
 
 def _options(options: IdentifyOptions | None, overrides: dict[str, Any]) -> IdentifyOptions:

@@ -91,7 +91,12 @@ class IdentifyOptions:
     Parameters
     ----------
     nmax : int, optional
-        Largest McMillan degree on the greedy path; None: ``max(10, p + 4)``.
+        Largest McMillan degree on the greedy path; None: ``order`` if given, else
+        ``max(10, p + 4)``.
+    order : int, optional
+        A fixed order: the path runs up to it (or to ``nmax``) and the model of this
+        order is selected instead of applying the order rule; at least ``p``, at most
+        ``nmax``. None: the order rule chooses.
     order_tolerance : float, default 1.0
         Order rule: lowest order within this many points of the best mean validation VAF.
     omega : sequence of (wc, zeta), optional
@@ -143,6 +148,7 @@ class IdentifyOptions:
     """
 
     nmax: int | None = None
+    order: int | None = None
     order_tolerance: float = 1.0
     omega: tuple[tuple[float, float], ...] | None = None
     tuning: str = "grid"
@@ -171,6 +177,7 @@ class IdentifyOptions:
             if isinstance(self.refine, bool) else self.refine
         checked = {
             "nmax": None if self.nmax is None else _integer("nmax", self.nmax, 1),
+            "order": None if self.order is None else _integer("order", self.order, 1),
             "order_tolerance": _number("order_tolerance", self.order_tolerance,
                                        "a number >= 0 (points of VAF)", lambda t: t >= 0),
             "omega": _omega(self.omega),
@@ -190,8 +197,17 @@ class IdentifyOptions:
             "center": _flag("center", self.center),
             "x0": _choice("x0", self.x0, X0_CHOICES),
         }
+        if checked["order"] is not None and checked["nmax"] is not None and checked["order"] > checked["nmax"]:
+            raise _fail("order", f"at most nmax = {checked['nmax']} (the end of the path)", self.order)
         for name, value in checked.items():
             object.__setattr__(self, name, value)
+
+    def path_end(self, p: int) -> int:
+        """The order the greedy path runs to for ``p`` outputs: ``nmax``, else ``order``,
+        else ``max(10, p + 4)``."""
+        if self.nmax is not None:
+            return self.nmax
+        return self.order if self.order is not None else max(10, p + 4)
 
     @classmethod
     def improved(cls, **changes: Any) -> "IdentifyOptions":

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -12,9 +13,12 @@ from .metrics import nrmse_fit, vaf
 from ..models.statespace import StateSpaceModel
 from ..models.simulation import free_response
 
-__all__ = ["Comparison", "estimate_initial_state", "compare"]
+__all__ = ["Comparison", "estimate_initial_state", "compare", "same_period"]
 
 X0_CHOICES = ("zero", "estimate")
+# Relative difference of two sampling periods still taken as the same: room for a
+# period written with fewer digits (0.1 against 0.1000000001), none for a real change.
+TS_TOLERANCE = 1e-6
 
 
 @dataclass(frozen=True)
@@ -63,6 +67,11 @@ def estimate_initial_state(model: StateSpaceModel, u: np.ndarray, y: np.ndarray)
     return solution
 
 
+def same_period(a: float, b: float) -> bool:
+    """True when two sampling periods agree to a relative 1e-6."""
+    return math.isclose(a, b, rel_tol=TS_TOLERANCE)
+
+
 def compare(model: StateSpaceModel, data: IOData, x0: str = "zero") -> Comparison:
     """Simulate ``model`` on ``data``'s inputs and score it against the outputs.
 
@@ -71,7 +80,8 @@ def compare(model: StateSpaceModel, data: IOData, x0: str = "zero") -> Compariso
     model : StateSpaceModel
     data : IOData
         Raw or centred data; the model's operating point is used to move between
-        the two (``data.u_offset``/``y_offset`` say what was already removed).
+        the two (``data.u_offset``/``y_offset`` say what was already removed). Its
+        ``Ts`` must be the model's (relative tolerance 1e-6).
     x0 : {"zero", "estimate"}
         Start the simulation from the zero state, or from the least-squares
         initial state fitted to this record (uses the outputs: say so when reporting).
@@ -79,6 +89,11 @@ def compare(model: StateSpaceModel, data: IOData, x0: str = "zero") -> Compariso
     Returns
     -------
     Comparison
+
+    Raises
+    ------
+    DataError
+        The record's channel counts or sampling period differ from the model's.
 
     Examples
     --------
@@ -94,6 +109,11 @@ def compare(model: StateSpaceModel, data: IOData, x0: str = "zero") -> Compariso
     if (data.p, data.m) != (model.p, model.m):
         raise DataError(
             f"model has {model.p} outputs and {model.m} inputs, data have {data.p} and {data.m}"
+        )
+    if not same_period(data.Ts, model.Ts):
+        raise DataError(
+            f"the record is sampled every Ts = {data.Ts:g}, the model every Ts = {model.Ts:g}; "
+            "a discrete-time model only describes records of its own sampling period"
         )
     u = data.u + data.u_offset - model.u_offset
     y = data.y + data.y_offset - model.y_offset
