@@ -36,16 +36,16 @@ def check(data) -> None:
     assert data.Ts == TS  # steps k * 0.5 are exact in binary
 
 
-@pytest.mark.parametrize("encoding, sep, decimal", [
-    ("utf-8", ",", "."),
-    ("utf-8-sig", ",", "."),  # with a byte-order mark
-    ("utf-16", "\t", "."),  # Python writes a byte-order mark
-    ("latin-1", ";", ","),
-    ("cp1252", ";", ","),
+@pytest.mark.parametrize("encoding, sep, decimal, newline", [
+    ("utf-8", ",", ".", "\n"),
+    ("utf-8-sig", ",", ".", "\r\n"),  # with a byte-order mark, Windows line ends
+    ("utf-16", "\t", ".", "\r\n"),  # Python writes a byte-order mark
+    ("latin-1", ";", ",", "\n"),
+    ("cp1252", ";", ",", "\r"),
 ])
-def test_encodings_delimiters_and_decimal_marks_are_found(tmp_path, encoding, sep, decimal):
+def test_encodings_delimiters_and_decimal_marks_are_found(tmp_path, encoding, sep, decimal, newline):
     path = tmp_path / "rec.csv"
-    path.write_bytes(table_text(sep, decimal).encode(encoding))
+    path.write_bytes(table_text(sep, decimal).replace("\n", newline).encode(encoding))
     check(read_data(path, [IN, "pump"], [OUT]))
 
 
@@ -94,9 +94,11 @@ def test_a_text_column_not_asked_for_is_ignored_and_one_asked_for_is_an_error(tm
 def test_a_bad_cell_is_located_by_its_line_in_the_file(tmp_path):
     # blank lines are skipped but still counted, as an editor numbers them
     path = tmp_path / "rec.csv"
-    path.write_text("u1,y1,note\n1,2,a\n\n3,4,b\n  \n5,oops,c\n")
-    with pytest.raises(DataError, match=r"rec.csv, line 6, column 'y1': 'oops' is not a number"):
-        read_data(path, ["u1"], ["y1"])
+    for newline in ("\n", "\r\n"):
+        path.write_bytes(f"u1,y1,note{newline}1,2,a{newline}{newline}3,4,b{newline}  {newline}"
+                         f"5,oops,c{newline}".encode())
+        with pytest.raises(DataError, match=r"rec.csv, line 6, column 'y1': 'oops' is not a number"):
+            read_data(path, ["u1"], ["y1"])
     path.write_text("u1,y1\n1,2\n3,inf\n")
     with pytest.raises(DataError, match=r"line 3, column 'y1': inf is not a finite number"):
         read_data(path, ["u1"], ["y1"])

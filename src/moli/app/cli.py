@@ -223,7 +223,8 @@ def demo(out_dir: Path, nmax: int, all_lists: bool) -> None:
 @click.option("--outputs", help="Comma-separated output column names, e.g. y1,y2.")
 @click.option("--daisy", metavar="NAME", help="Use a DaISy benchmark set instead of DATA.")
 @click.option("--data-dir", type=click.Path(path_type=Path), help="Folder holding DaISy files.")
-@click.option("--ts", type=float, help="Sampling period [default: a time column's step, else 1].")
+@click.option("--ts", type=float, help="Sampling period; time stamps in DATA must agree with it "
+              "[default: a period stored in DATA, else its time column's median step, else 1].")
 @click.option("--options", "options_file", type=click.Path(path_type=Path),
               help="JSON file of identification options (IdentifyOptions.to_dict(), or a saved "
                    "model, whose options are reused); flags given beside it override its fields.")

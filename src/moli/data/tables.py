@@ -17,8 +17,8 @@ import numpy as np
 from .cells import is_missing, parse_numbers
 from .iodata import IOData
 from .timing import (
-    TIME_COLUMNS, TIME_TOLERANCE, check_tolerance, datetimes_to_seconds, irregular_warning,
-    iso_to_seconds, sampling_period,
+    TIME_COLUMNS, TIME_TOLERANCE, check_period, check_tolerance, datetimes_to_seconds,
+    irregular_warning, iso_to_seconds, sampling_period,
 )
 from ..errors import DataError, IrregularSamplingWarning, OptionError
 
@@ -71,7 +71,7 @@ def _names(value: object, what: str) -> tuple[str, ...] | None:
     if value is None:
         return None
     accepted = f"{what} must be a sequence of column names such as ['{what[0]}1', '{what[0]}2']"
-    if isinstance(value, str) or not isinstance(value, Sequence) and not hasattr(value, "__iter__"):
+    if isinstance(value, str) or not hasattr(value, "__iter__"):
         raise DataError(f"{accepted}, got {value!r}")
     names = tuple(value)  # type: ignore[arg-type]
     if not names or not all(isinstance(name, str) for name in names):
@@ -84,9 +84,6 @@ def check_request(
     tolerance: object,
 ) -> Request:
     """The caller's channel names, period and time options, or an error saying what is accepted."""
-    if Ts is not None and (isinstance(Ts, bool) or not isinstance(Ts, (int, float, np.floating))
-                           or not (np.isfinite(Ts) and Ts > 0)):
-        raise DataError(f"Ts must be a positive finite number, got {Ts!r}")
     if time_column is not None and time_column is not False and not isinstance(time_column, str):
         raise OptionError(f"time_column must be a column name, None (find it) or False (none), "
                           f"got {time_column!r}")
@@ -94,7 +91,7 @@ def check_request(
         raise OptionError(f"time_format must be a strftime format such as '%d/%m/%Y %H:%M:%S', "
                           f"got {time_format!r}")
     request = Request(_names(inputs, "inputs"), _names(outputs, "outputs"),
-                      None if Ts is None else float(Ts), time_column, time_format,
+                      None if Ts is None else check_period(Ts), time_column, time_format,
                       check_tolerance(tolerance))
     both = set(request.inputs or ()) & set(request.outputs or ())
     if both:

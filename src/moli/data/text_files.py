@@ -11,9 +11,12 @@ from __future__ import annotations
 import codecs
 import csv
 import dataclasses
+import functools
 import io
+import itertools
 import re
 from pathlib import Path
+from typing import Callable, Iterator
 
 from .cells import optional
 from .tables import Table, check_header, frame_table
@@ -50,6 +53,7 @@ LEGACY_ENCODINGS = (
 # in a Western European language.
 WESTERN_SHARE = 0.5
 WORD = re.compile(r"[^\W\d_]+")
+LINE = re.compile(r"([^\r\n]*)(?:\r\n|\r|\n|$)")
 # Characters that never occur in a text table: their presence means binary data.
 CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")
 COMMA_NUMBER = re.compile(r"^[+-]?\d*,\d+(?:[eE][+-]?\d+)?$")
@@ -166,7 +170,7 @@ def _decode(raw: bytes, encoding: str, path: Path, given: bool) -> str:
             "does not decode; give the file's encoding (encoding= or --encoding), e.g. utf-8, "
             "utf-16, cp1252"
         ) from None
-    bad = CONTROL.search(text)
+    bad = CONTROL.search(text, 0, DETECT_BYTES)  # binary data shows at once; later junk fails as cells
     if bad:
         line = text.count("\n", 0, bad.start()) + 1
         raise DataError(
@@ -208,14 +212,35 @@ def _shown(delimiter: str) -> str:
     return {"\t": "tab", WHITESPACE: "whitespace"}.get(delimiter, repr(delimiter))
 
 
+def _numbered(text: str) -> Iterator[tuple[int, str]]:
+    """The non-blank lines of ``text`` with their numbers from 1 (any line ending), lazily."""
+    for number, match in enumerate(LINE.finditer(text), start=1):
+        if match.group(1).strip():
+            yield number, match.group(1)
+
+
+def _line_locator(text: str, rows: int) -> Callable[[int], str]:
+    """Names data row ``k`` by its line in the file; lines are counted on first use, since
+    only messages need them."""
+
+    @functools.cache
+    def lines() -> list[int]:
+        return [number for number, _ in _numbered(text)][1:]
+
+    def row(k: int) -> str:
+        # a quoted cell spanning lines would shift the count: name the data row instead
+        return f"line {lines()[k]}" if len(lines()) == rows else f"data row {k + 1}"
+
+    return row
+
+
 def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: str | None) -> Table:
     """The columns of a text table, every cell located by its line in the file."""
     raw = path.read_bytes()
     text = _decode(raw, encoding or detect_encoding(raw), path, encoding is not None)
-    numbered = [(k + 1, line) for k, line in enumerate(re.split(r"\r\n|\r|\n", text)) if line.strip()]
-    if not numbered:
+    head = [line for _, line in itertools.islice(_numbered(text), SNIFF_LINES + 1)]
+    if not head:
         raise DataError(f"{path} is empty; expected a header row with column names")
-    head = [line for _, line in numbered[:SNIFF_LINES + 1]]
     delimiter = delimiter or sniff_delimiter(head)
     decimal = decimal or sniff_decimal(head[1:], delimiter)
     if decimal == delimiter:
@@ -229,11 +254,5 @@ def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: 
         raise DataError(f"cannot read {path} as a table with {_shown(delimiter)} between "
                         f"columns: {exc}") from None
     check_header(list(frame.columns), str(path))
-    lines = [number for number, _ in numbered[1:]]
-    if len(lines) == len(frame):
-        def row(k: int) -> str:
-            return f"line {lines[k]}"
-    else:  # a quoted cell spans lines: count rows instead
-        def row(k: int) -> str:
-            return f"data row {k + 1}"
-    return dataclasses.replace(frame_table(frame, str(path), row), decimal=decimal)
+    table = frame_table(frame, str(path), _line_locator(text, len(frame)))
+    return dataclasses.replace(table, decimal=decimal)

@@ -8,6 +8,7 @@ which become seconds since the first sample, so their period is in seconds.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from numbers import Real
 from typing import Callable
 
 import numpy as np
@@ -63,10 +64,16 @@ class SamplingGap:
         return self.stop - self.start
 
 
+def check_period(Ts: object) -> float:
+    """``Ts`` as a positive finite float, or an error saying what is accepted."""
+    if isinstance(Ts, bool) or not isinstance(Ts, Real) or not (np.isfinite(Ts) and Ts > 0):
+        raise DataError(f"Ts must be a positive finite number, got {Ts!r}")
+    return float(Ts)
+
+
 def check_tolerance(tolerance: object) -> float:
     """``tolerance`` as a float in [0, 0.5), or an error saying what is accepted."""
-    if isinstance(tolerance, bool) or not isinstance(tolerance, (int, float, np.floating)) \
-            or not 0 <= tolerance < 0.5:
+    if isinstance(tolerance, bool) or not isinstance(tolerance, Real) or not 0 <= tolerance < 0.5:
         raise OptionError(
             f"time_tolerance must be a number in [0, 0.5) (a fraction of Ts), got {tolerance!r}"
         )
@@ -98,8 +105,7 @@ def find_gaps(times: object, Ts: float, tolerance: float = TIME_TOLERANCE) -> tu
     values = np.asarray(times, dtype=float)
     if values.ndim != 1 or not np.all(np.isfinite(values)):
         raise DataError(f"times must be a 1-D array of finite numbers, got shape {values.shape}")
-    if isinstance(Ts, bool) or not (isinstance(Ts, (int, float, np.floating)) and np.isfinite(Ts) and Ts > 0):
-        raise DataError(f"Ts must be a positive finite number, got {Ts!r}")
+    Ts = check_period(Ts)
     tolerance = check_tolerance(tolerance)
     steps = np.diff(values)
     irregular = np.flatnonzero(np.abs(steps - Ts) > tolerance * Ts) + 1
