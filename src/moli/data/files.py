@@ -11,7 +11,6 @@ each error means.
 from __future__ import annotations
 
 import hashlib
-import warnings
 from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
@@ -142,10 +141,7 @@ def read_data(
         table = read_parquet(path)
     else:
         table = read_npz(path) if suffix == ".npz" else read_mat(path)
-    data, warning = record(table, request)
-    if warning is not None:
-        warnings.warn(warning, stacklevel=2)
-    return data
+    return record(table, request)
 
 
 def file_sha256(path: str | Path) -> str:

@@ -243,8 +243,12 @@ def _period(table: Table, request: Request, clock: str | None,
                                      table.row, unit)
 
 
-def record(table: Table, request: Request) -> tuple[IOData, IrregularSamplingWarning | None]:
-    """The record a table holds, and the warning to give if its time steps are irregular."""
+def record(table: Table, request: Request) -> IOData:
+    """The record a table holds; irregular time steps warn the public function's caller.
+
+    Called straight from each public reader, so the warning points at the line that
+    called that reader.
+    """
     inputs, outputs = _channels(table, request)
     columns = {name: _numbers(table, name) for name in (*inputs, *outputs)}
     lengths = {len(values) for values in columns.values()}
@@ -258,7 +262,10 @@ def record(table: Table, request: Request) -> tuple[IOData, IrregularSamplingWar
     Ts, warning = _period(table, request, clock, lengths.pop())
     u = np.column_stack([columns[name] for name in inputs])
     y = np.column_stack([columns[name] for name in outputs])
-    return IOData(y, u, Ts, output_names=outputs, input_names=inputs), warning
+    data = IOData(y, u, Ts, output_names=outputs, input_names=inputs)
+    if warning is not None:
+        warnings.warn(warning, stacklevel=3)
+    return data
 
 
 def from_columns(
@@ -303,10 +310,7 @@ def from_columns(
     """
     request = check_request(inputs, outputs, Ts, time_column, time_format, time_tolerance)
     columns = {str(name): np.asarray(values) for name, values in table.items()}
-    data, warning = record(Table(columns, source), request)
-    if warning is not None:
-        warnings.warn(warning, stacklevel=2)
-    return data
+    return record(Table(columns, source), request)
 
 
 def frame_table(frame: "pd.DataFrame", source: str, row: Callable[[int], str] = _data_row) -> Table:
@@ -364,7 +368,4 @@ def from_dataframe(
     IOData(N=3, p=1, m=1, Ts=0.2, outputs=['y'], inputs=['u'])
     """
     request = check_request(inputs, outputs, Ts, time_column, time_format, time_tolerance)
-    data, warning = record(frame_table(frame, "the data frame"), request)
-    if warning is not None:
-        warnings.warn(warning, stacklevel=2)
-    return data
+    return record(frame_table(frame, "the data frame"), request)
