@@ -19,8 +19,8 @@ from typing import TYPE_CHECKING, Any
 from ._version import __version__
 from .errors import (
     ClosedLoopWarning, DataError, DataQualityWarning, FilterError, IllConditionedWarning,
-    ModelFileError, MoliError, OptionError, OrderBoundWarning, StructureError,
-    UnstableModelWarning,
+    IrregularSamplingWarning, ModelFileError, MoliError, OptionError, OrderBoundWarning,
+    StructureError, UnstableModelWarning,
 )
 
 # public name -> the subpackage that defines it
@@ -45,7 +45,7 @@ _SUBPACKAGES = ("data", "models", "validation", "method", "streaming", "systems"
 __all__ = [
     "__version__", "MoliError", "DataError", "FilterError", "IllConditionedWarning",
     "ModelFileError", "OptionError", "StructureError", "UnstableModelWarning", "DataQualityWarning",
-    "OrderBoundWarning", "ClosedLoopWarning",
+    "OrderBoundWarning", "ClosedLoopWarning", "IrregularSamplingWarning",
     *_HOMES, *_SUBPACKAGES,
 ]
 

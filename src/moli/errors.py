@@ -6,11 +6,13 @@ specific class or the builtin one.
 
 from __future__ import annotations
 
+from typing import Any, Sequence
+
 __all__ = [
     "MoliError", "DataError", "StructureError", "FilterError", "OptionError", "ModelFileError",
     "ControlDesignError",
     "UnstableModelWarning", "IllConditionedWarning", "DataQualityWarning", "OrderBoundWarning",
-    "ClosedLoopWarning",
+    "ClosedLoopWarning", "IrregularSamplingWarning",
 ]
 
 
@@ -61,3 +63,18 @@ class OrderBoundWarning(UserWarning):
 
 class ClosedLoopWarning(UserWarning):
     """The estimation data look closed-loop: an input depends on past outputs."""
+
+
+class IrregularSamplingWarning(UserWarning):
+    """A record's time stamps are not evenly spaced; ``gaps`` says where.
+
+    Attributes
+    ----------
+    gaps : tuple
+        One :class:`moli.data.SamplingGap` per irregular step (sample index, the times
+        on either side, the step and the samples it is missing).
+    """
+
+    def __init__(self, message: str, gaps: Sequence[Any] = ()) -> None:
+        super().__init__(message)
+        self.gaps = tuple(gaps)

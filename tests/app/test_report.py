@@ -3,15 +3,19 @@
 from __future__ import annotations
 
 import base64
+import hashlib
+import html
 import re
+from datetime import datetime
 
 import numpy as np
 import pytest
 
 import moli
 from moli.app import figures
-from moli.app.report import path_table, write_report
+from moli.app.report import path_table, validation_caption, write_report
 from moli.method.search import StructureSearch, exhaustive
+from systems_util import random_system
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -23,14 +27,16 @@ def result() -> moli.IdentificationResult:
 
 
 @pytest.fixture(scope="module")
-def written(result, tmp_path_factory) -> tuple[str, object]:
-    """The report written once (drawing its figures is most of the cost): page and folder."""
+def written(result, tmp_path_factory) -> tuple[str, object, object]:
+    """The report written once (drawing its figures is most of the cost): page, folder, input file."""
     folder = tmp_path_factory.mktemp("rep")
-    return write_report(result, folder).read_text(), folder
+    data_file = folder / "plant.csv"
+    data_file.write_bytes(b"time,u1,y1\n0,1,2\n")
+    return write_report(result, folder, data_file=data_file).read_text(), folder, data_file
 
 
 def test_report_files_exist_and_html_embeds_every_png(written, result):
-    page, folder = written
+    page, folder, data_file = written
     embedded = re.findall(r'src="data:image/png;base64,([^"]+)"', page)
     names = ["vaf_by_order", "validation", "poles", "step_responses", "residuals"]
     assert len(embedded) == len(names)
@@ -38,7 +44,53 @@ def test_report_files_exist_and_html_embeds_every_png(written, result):
         png = (folder / f"{name}.png").read_bytes()
         assert png.startswith(PNG_MAGIC) and len(png) > 5000, name
         assert base64.b64decode(data) == png
-    assert page.count("<tr") == len(result.path) + 1 + 7  # path table + header + model facts
+    assert path_table(result).count("<tr") == len(result.path) + 1  # a row per order and the head
+    assert page.count(path_table(result)) == 1
+
+    # provenance: input file and its SHA-256, version, date; every option as a row
+    facts = dict(re.findall(r'<th scope="row">([^<]+)</th><td class="text">([^<]*)</td>', page))
+    assert facts["input"] == str(data_file)
+    assert facts["SHA-256 of the input file"] == hashlib.sha256(b"time,u1,y1\n0,1,2\n").hexdigest()
+    assert facts["moli version"] == moli.__version__
+    assert datetime.strptime(facts["written (UTC)"], "%Y-%m-%d %H:%M:%S").year >= 2024
+    for name, value in result.options.to_dict().items():
+        assert facts[name].startswith(html.escape(str(value))), name
+    assert facts["selected by"] == html.escape(result.selection)
+    # the scores: formulas, simulation rather than prediction, and why VAF stops at 0
+    for words in ("clipped at 0", "<b>simulation</b>", "not a one-step-ahead prediction",
+                  "one diverging output cannot", "a negative fit", validation_caption(result)):
+        assert words in page
+
+
+def test_validation_caption_says_in_which_units_the_outputs_are_drawn():
+    est, val = moli.example_data(N=300, seed=2).split(0.5)
+    centred = moli.identify(est, val, nmax=3)
+    raw = moli.identify(est, val, nmax=3, center=False)
+    # identify subtracts the estimation means from the validation record (not its own)
+    assert "deviations from the estimation record's means" in validation_caption(centred)
+    assert "the recorded values (IdentifyOptions.center is off" in validation_caption(raw)
+
+
+def six_output_record() -> moli.IOData:
+    """A random stable 6-output, 2-input plant of order 8 with long channel names."""
+    rng = np.random.default_rng(8)
+    plant = random_system(8, 6, 2, rng)
+    u = rng.standard_normal((400, 2))
+    names = [f"furnace temperature {k}" for k in range(1, 7)]
+    return moli.IOData(plant.simulate(u), u, 0.5, output_names=names, input_names=["gas", "air"])
+
+
+def test_report_stays_readable_with_six_outputs():
+    est, val = six_output_record().split(0.6)
+    result = moli.identify(est, val, nmax=7)
+    table = path_table(result)
+    # the path table numbers the outputs and names them below, so its width does not
+    # grow with the names; it scrolls sideways inside the page if need be
+    assert re.findall(r"<th>VAF (y\d)</th>", table) == [f"y{k}" for k in range(1, 7)]
+    assert "y6 = furnace temperature 6" in table and "<div class='wide'>" in table
+    # one panel per output at full height, and a 6-by-2 grid of step responses
+    assert len(figures.measured_vs_simulated(val, moli.compare(result.model, val)).axes) == 6
+    assert len(figures.step_responses(result.model, 50).axes) == 12
 
 
 def test_path_table_marks_the_selected_row(result):

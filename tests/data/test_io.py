@@ -1,4 +1,8 @@
-"""Reading records from CSV, .npz, .mat, Parquet and data frames."""
+"""Reading records from CSV, .npz, .mat, Parquet and data frames: the basics.
+
+Encodings, delimiters and cell errors of text files: test_text_files.py; time stamps:
+test_timing.py; spreadsheets, Parquet and MATLAB structs: test_file_formats.py.
+"""
 
 from __future__ import annotations
 
@@ -11,7 +15,7 @@ from scipy.io import savemat
 
 import moli
 from moli.errors import DataError
-from moli.data.files import fingerprint, from_dataframe, read_data, to_dataframe
+from moli.data import fingerprint, from_dataframe, read_data, to_dataframe
 
 RNG = np.random.default_rng(7)
 U = RNG.standard_normal((20, 2))
@@ -39,9 +43,11 @@ def test_csv_reads_named_columns_and_the_period_of_the_time_column(tmp_path, sep
     assert data.Ts == pytest.approx(TS, rel=1e-9)
 
 
-def test_stated_period_wins_and_default_is_one(tmp_path):
-    assert read_data(write_csv(tmp_path / "a.csv"), ["u1"], ["y1"], Ts=2.0).Ts == 2.0
-    assert read_data(write_csv(tmp_path / "b.csv", time=False), ["u1"], ["y1"]).Ts == 1.0
+def test_stated_period_without_time_stamps_and_default_is_one(tmp_path):
+    assert read_data(write_csv(tmp_path / "a.csv", time=False), ["u1"], ["y1"], Ts=2.0).Ts == 2.0
+    assert read_data(tmp_path / "a.csv", ["u1"], ["y1"]).Ts == 1.0
+    # time stamps and a stated period that agree: the stated one is kept
+    assert read_data(write_csv(tmp_path / "b.csv"), ["u1"], ["y1"], Ts=TS).Ts == TS
 
 
 @pytest.mark.parametrize(
@@ -50,8 +56,8 @@ def test_stated_period_wins_and_default_is_one(tmp_path):
         ("", "empty"),
         ("u1,y1\n", "no data rows"),
         ("u1,y1\n1,2\n3,abc\n", "line 3, column 'y1': 'abc' is not a number"),
-        ("u1,y1\n1,2\n3\n", "line 3, column 'y1': '' is not a number"),
-        ("time,u1,y1\n0,1,2\n1,3,4\n5,6,7\n", "not uniformly increasing"),
+        ("u1,y1\n1,2\n3\n", "line 3, column 'y1': no value"),
+        ("time,u1,y1\n0,1,2\n1,3,4\n0.5,6,7\n", "line 4, column 'time': time does not increase"),
         ("u1,y2\n1,2\n", "no column 'y1'; columns: 'u1', 'y2'"),
     ],
 )
@@ -65,9 +71,9 @@ def test_csv_errors_name_the_problem(tmp_path, content, message):
 def test_missing_file_suffix_and_names(tmp_path):
     with pytest.raises(DataError, match="no data file"):
         read_data(tmp_path / "absent.csv", ["u1"], ["y1"])
-    (tmp_path / "rec.xlsx").write_text("x")
-    with pytest.raises(DataError, match="suffix"):
-        read_data(tmp_path / "rec.xlsx", ["u1"], ["y1"])
+    (tmp_path / "rec.xls").write_text("x")
+    with pytest.raises(DataError, match="suffix must be one of .csv, .tsv, .txt, .xlsx"):
+        read_data(tmp_path / "rec.xls", ["u1"], ["y1"])
     with pytest.raises(DataError, match="name the input and output columns"):
         read_data(write_csv(tmp_path / "rec.csv"))
     with pytest.raises(DataError, match="both as input and as output"):
@@ -111,7 +117,7 @@ def test_parquet_round_trip(tmp_path):
 @pytest.mark.skipif(importlib.util.find_spec("pyarrow") is not None, reason="pyarrow installed")
 def test_parquet_without_pyarrow_says_what_to_install(tmp_path):
     (tmp_path / "rec.parquet").write_bytes(b"PAR1")
-    with pytest.raises(DataError, match="pip install pyarrow"):
+    with pytest.raises(DataError, match=r"needs pyarrow: pip install 'moli\[data\]'"):
         read_data(tmp_path / "rec.parquet", ["u1"], ["y1"])
 
 
@@ -136,7 +142,7 @@ def test_read_data_does_not_touch_caller_lists(tmp_path):
 
 def test_dataframe_text_column_is_an_error():
     pd = pytest.importorskip("pandas")
-    with pytest.raises(DataError, match="not numeric"):
+    with pytest.raises(DataError, match="the data frame, row 1, column 'u': 'a' is not a number"):
         from_dataframe(pd.DataFrame({"u": ["a", "b"], "y": [1.0, 2.0]}), ["u"], ["y"])
 
 

@@ -15,6 +15,7 @@ from moli import IdentifyOptions, OptionError
 BAD = {
     "nmax": ("8", 0),
     "order_rule": (1, "lowest"),
+    "order": ("3", 0),
     "order_tolerance": ("1", -0.5),
     "omega": (3.0, [(0.1, -0.7)]),
     "tuning": (1, "grid-search"),

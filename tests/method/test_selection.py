@@ -90,6 +90,33 @@ def test_identify_rejects_bad_options():
         moli.identify(data[:8], validation=data[8:40])
 
 
+def test_a_fixed_order_selects_that_model_of_the_path():
+    est, val = moli.example_data(N=500, seed=4).split(330)
+    free = moli.identify(est, val, nmax=5)
+    fixed = moli.identify(est, val, order=5)  # the path runs to the fixed order
+    assert fixed.nmax == 5 and fixed.selected.order == 5
+    assert [st.indices for st in fixed.path] == [st.indices for st in free.path]
+    np.testing.assert_array_equal(fixed.model.A, free.path[-1].model.A)
+    assert "the fixed order n = 5 (IdentifyOptions.order)" in fixed.summary()
+    with pytest.raises(moli.OptionError, match="order must be at least the number of outputs, 3"):
+        moli.identify(est, val, order=2)
+    # 20 samples carry lists up to n = 6 only
+    with pytest.raises(moli.DataError, match="order = 9 is not on the greedy path: .* beyond n = 6"):
+        moli.identify(est[:20], val, order=9)
+
+
+def test_records_of_different_periods_are_refused():
+    est, val = moli.example_data(N=400, seed=4).split(300)
+    slow = moli.IOData(val.y, val.u, Ts=2.0)
+    with pytest.raises(moli.DataError, match="validation is sampled every Ts = 2, data every Ts = 1"):
+        moli.identify(est, slow, nmax=3)
+    model = moli.identify(est, val, nmax=3).model
+    with pytest.raises(moli.DataError, match="record is sampled every Ts = 2, the model every Ts = 1"):
+        moli.compare(model, slow)
+    # a period written with fewer digits is the same period (relative 1e-6)
+    assert moli.compare(model, moli.IOData(val.y, val.u, Ts=1 + 1e-9)).vaf.shape == (3,)
+
+
 def test_unstable_plant_warns_and_does_not_crash():
     rng = np.random.default_rng(8)
     u = rng.standard_normal((300, 1))

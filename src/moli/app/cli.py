@@ -1,8 +1,8 @@
 """The ``moli`` command: identify from a file, validate and inspect saved models.
 
-Bad input (missing file, unknown column, non-numeric cell, too few samples, a model
-that does not match the data) ends with one line ``moli: error: ...`` on stderr and
-exit code 2, never a traceback.
+Bad input (missing or unreadable file, unknown column, non-numeric or empty cell, too
+few samples, a model that does not match the data) ends with one line
+``moli: error: ...`` on stderr and exit code 2, never a traceback.
 """
 
 from __future__ import annotations
@@ -12,17 +12,17 @@ import math
 import sys
 import warnings
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import click
 import numpy as np
 from tqdm import tqdm
 
 from .._version import __version__
-from ..data.daisy import load_daisy
-from ..data.files import fingerprint, read_data
+from ..data.daisy import daisy_path, load_daisy
+from ..data.files import file_sha256, fingerprint, read_data
 from ..data.iodata import IOData
-from ..errors import DataError, MoliError, OptionError
+from ..errors import DataError, IrregularSamplingWarning, MoliError, OptionError
 from ..method.identification import IdentificationResult, identify
 from ..method.options import PRESETS, IdentifyOptions
 from ..method.search import PathStep, StructureSearch, exhaustive
@@ -84,6 +84,43 @@ def _echo_warnings(caught: list[warnings.WarningMessage]) -> None:
         click.echo(f"moli: warning: {message}", err=True)
 
 
+def _reading_options(command: Callable[..., Any]) -> Callable[..., Any]:
+    """The flags that say how to read a data file (every format of read_data)."""
+    flags = [
+        click.option("--delimiter", help="Column separator of a text file: one character, or "
+                     "tab or whitespace [default: sniffed]."),
+        click.option("--decimal", type=click.Choice([".", ","]),
+                     help="Decimal mark of a text file [default: sniffed]."),
+        click.option("--encoding", help="Encoding of a text file, e.g. utf-8, utf-16, cp1252 "
+                     "[default: detected]."),
+        click.option("--sheet", help="Sheet of an .xlsx workbook: its name or 0-based position "
+                     "[default: the first]."),
+        click.option("--time-column", help="Column of time stamps [default: the first named time, "
+                     "t, timestamp, date or datetime]."),
+        click.option("--time-format", help="strftime format of date-times that are not ISO 8601, "
+                     "e.g. '%d/%m/%Y %H:%M:%S'."),
+        click.option("--no-time-column", is_flag=True, help="Ignore time columns."),
+    ]
+    for flag in reversed(flags):
+        command = flag(command)
+    return command
+
+
+def _read(path: Path, inputs: list[str] | None, outputs: list[str] | None, ts: float | None,
+          reading: dict[str, Any]) -> IOData:
+    """read_data with the reading flags; irregular time steps become warning lines."""
+    reading = dict(reading)
+    if reading.pop("no_time_column"):
+        if reading["time_column"] is not None:
+            raise OptionError("give --time-column NAME or --no-time-column, not both")
+        reading["time_column"] = False
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", IrregularSamplingWarning)
+        data = read_data(path, inputs, outputs, ts, **reading)
+    _echo_warnings([w for w in caught if issubclass(w.category, IrregularSamplingWarning)])
+    return data
+
+
 def options_from_flags(options_file: Path | None, preset: str | None, **flags: Any) -> IdentifyOptions:
     """The one place where command-line flags become :class:`IdentifyOptions`.
 
@@ -112,8 +149,7 @@ def _identify(data: IOData, fraction: float, options: IdentifyOptions) -> Identi
     if not 0.0 < fraction < 1.0:
         raise DataError(f"--validation must be a fraction in (0, 1), got {fraction}")
     estimation, validation = data.split(1.0 - fraction)
-    nmax = max(10, data.p + 4) if options.nmax is None else options.nmax  # identify's default, for the bar
-    progress = _Progress(max(nmax - data.p + 1, 1))
+    progress = _Progress(max(options.path_end(data.p) - data.p + 1, 1))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:
@@ -150,14 +186,16 @@ def _all_lists(result: IdentificationResult) -> list[PathStep]:
     return tried
 
 
-def _finish(result: IdentificationResult, model_path: Path, report_dir: Path | None, all_lists: bool) -> None:
+def _finish(result: IdentificationResult, model_path: Path, report_dir: Path | None, all_lists: bool,
+            data_file: Path | None = None) -> None:
     click.echo(result.summary())
     model_path.parent.mkdir(parents=True, exist_ok=True)
     result.model.save(model_path)
     click.echo(f"model written to {model_path}")
     if report_dir is not None:
         tried = _all_lists(result) if all_lists else []
-        click.echo(f"report written to {write_report(result, report_dir, tried)}")
+        report = write_report(result, report_dir, tried, data_file=data_file)
+        click.echo(f"report written to {report}")
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
@@ -186,11 +224,15 @@ def demo(out_dir: Path, nmax: int, all_lists: bool) -> None:
 @click.option("--outputs", help="Comma-separated output column names, e.g. y1,y2.")
 @click.option("--daisy", metavar="NAME", help="Use a DaISy benchmark set instead of DATA.")
 @click.option("--data-dir", type=click.Path(path_type=Path), help="Folder holding DaISy files.")
-@click.option("--ts", type=float, help="Sampling period [default: a time column's step, else 1].")
+@click.option("--ts", type=float, help="Sampling period; time stamps in DATA must agree with it "
+              "[default: a period stored in DATA, else its time column's median step, else 1].")
 @click.option("--options", "options_file", type=click.Path(path_type=Path),
               help="JSON file of identification options (IdentifyOptions.to_dict(), or a saved "
                    "model, whose options are reused); flags given beside it override its fields.")
-@click.option("--nmax", type=int, help="Largest order on the greedy path [default: max(10, p + 4)].")
+@click.option("--nmax", type=int, help="Largest order on the greedy path [default: --order, else "
+              "max(10, p + 4)].")
+@click.option("--order", type=int, help="Fixed order: select the path's model of this order instead "
+              "of the order rule.")
 @click.option("--validation", "fraction", default=0.3, show_default=True,
               help="Share of the record, at its end, held out for order selection and the report.")
 @click.option("--seed", type=int, help="Seed of the randomized filter search [default: 0].")
@@ -205,27 +247,31 @@ def demo(out_dir: Path, nmax: int, all_lists: bool) -> None:
               help="Folder for report.html and the figures.")
 @click.option("--all-lists", is_flag=True,
               help=f"Also fit every list of orders with at most {MAX_LISTS_PER_ORDER} lists (report).")
+@_reading_options
 def fit(data_file: Path | None, inputs: str | None, outputs: str | None, daisy: str | None,
         data_dir: Path | None, ts: float | None, options_file: Path | None, nmax: int | None,
-        fraction: float, seed: int | None, preset: str | None, x0: str | None, model_path: Path, report_dir: Path | None, all_lists: bool) -> None:
-    """Identify a model from a CSV, .npz, .mat or .parquet file.
+        order: int | None, fraction: float, seed: int | None, preset: str | None, x0: str | None,
+        model_path: Path, report_dir: Path | None, all_lists: bool, **reading: Any) -> None:
+    """Identify a model from a data file (or a DaISy set).
 
-    A CSV file needs a header row with the column names; a column named time or t
-    gives the sampling period unless --ts is given.
+    DATA is a text table (.csv .tsv .txt), an Excel workbook (.xlsx), Parquet, .npz or
+    .mat file (docs/data.md). A table needs a header row with the column names; a
+    column named time, t, timestamp, date or datetime gives the sampling period
+    (seconds for date-times) unless --ts is given, and must then agree with it.
     """
     if (data_file is None) == (daisy is None):
         raise DataError("give either a DATA file or --daisy NAME")
-    options = options_from_flags(options_file, preset, nmax=nmax, seed=seed, x0=x0)
+    options = options_from_flags(options_file, preset, nmax=nmax, order=order, seed=seed, x0=x0)
     if daisy is not None:
         data = load_daisy(daisy, data_dir)
-        source = f"DaISy {daisy}"
+        source, data_file = f"DaISy {daisy}", daisy_path(daisy, data_dir)
     else:
-        data = read_data(data_file, _names(inputs), _names(outputs), ts)
+        data = _read(data_file, _names(inputs), _names(outputs), ts, reading)
         source = str(data_file)
     click.echo(f"{source}: {data}")
     result = _identify(data, fraction, options)
-    result.model.info["data"]["source"] = source
-    _finish(result, model_path, report_dir, all_lists)
+    result.model.info["data"].update(source=source, file_sha256=file_sha256(data_file))
+    _finish(result, model_path, report_dir, all_lists, data_file)
 
 
 @cli.command()
@@ -237,16 +283,18 @@ def fit(data_file: Path | None, inputs: str | None, outputs: str | None, daisy: 
               help="Simulate from the zero state or from a least-squares initial state.")
 @click.option("--plot", type=click.Path(path_type=Path), default="validation.png", show_default=True,
               help="Where to write the measured-against-simulated figure.")
+@_reading_options
 def validate(model_file: Path, data_file: Path, inputs: str | None, outputs: str | None,
-             x0: str, plot: Path) -> None:
+             x0: str, plot: Path, **reading: Any) -> None:
     """Score MODEL on DATA: VAF and fit per output, and a figure.
 
-    DATA is read with the model's channel names and sampling period unless
-    --inputs/--outputs name other columns.
+    DATA is read with the model's channel names unless --inputs/--outputs name other
+    columns, and with the model's sampling period: time stamps or a period stored in
+    DATA must agree with it.
     """
     model = load_model(model_file)
-    data = read_data(data_file, _names(inputs) or list(model.input_names),
-                     _names(outputs) or list(model.output_names), model.Ts)
+    data = _read(data_file, _names(inputs) or list(model.input_names),
+                 _names(outputs) or list(model.output_names), model.Ts, reading)
     comparison = compare(model, data, x0)
     click.echo(f"{data_file}: {data.N} samples; simulation from {x0} initial state")
     click.echo(f"{'output':<16}{'VAF %':>9}{'fit %':>9}")

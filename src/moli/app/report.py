@@ -1,28 +1,37 @@
-"""A self-contained HTML report of one identification, with its figures as PNG files."""
+"""A self-contained HTML report of one identification, with its figures as PNG files.
+
+The report says where it came from (input file and its SHA-256, options, moli
+version, date), what the scores mean, and stays readable with many outputs: the path
+table numbers the outputs and lists their names under it.
+"""
 
 from __future__ import annotations
 
 import base64
 import html
+from datetime import datetime, timezone
 from pathlib import Path
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 from matplotlib.figure import Figure
 
 from . import figures
 from .._version import __version__
+from ..data.files import file_sha256
 from ..method.identification import IdentificationResult
 from ..method.search import PathStep
 from ..validation.comparison import compare
 from ..validation.residuals import SAMPLES_PER_LAG, ResidualAnalysis, residual_analysis
 
-__all__ = ["path_table", "write_report"]
+__all__ = ["path_table", "validation_caption", "write_report"]
 
 STYLE = """
 body { font-family: sans-serif; max-width: 60em; margin: 2em auto; color: #222; }
 table { border-collapse: collapse; font-size: 0.9em; }
 th, td { padding: 0.2em 0.6em; text-align: right; border-bottom: 1px solid #ddd; }
+th[scope="row"], td.text { text-align: left; }
+.wide { overflow-x: auto; }
 tr.selected { background: #fde7c7; font-weight: bold; }
 img { max-width: 100%; }
 .note { color: #555; font-size: 0.9em; }
@@ -39,8 +48,19 @@ def _image(png: bytes, alt: str) -> str:
     return f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{encoded}">'
 
 
+def _facts(rows: Mapping[str, str]) -> str:
+    """A two-column table of labels and values."""
+    return "<table>" + "".join(
+        f'<tr><th scope="row">{html.escape(k)}</th><td class="text">{html.escape(v)}</td></tr>'
+        for k, v in rows.items()
+    ) + "</table>"
+
+
 def path_table(result: IdentificationResult) -> str:
     """The greedy path as an HTML table, the selected row highlighted.
+
+    Outputs are numbered ``y1, y2, ...`` in the column heads, so the table keeps its
+    width whatever the names; a line under it gives each number's name.
 
     Parameters
     ----------
@@ -52,8 +72,8 @@ def path_table(result: IdentificationResult) -> str:
     """
     names = result.estimation.output_names
     head = "".join(f"<th>{html.escape(h)}</th>" for h in
-                   ["n", "indices", "J", *(f"VAF {nm}" for nm in names), "mean VAF", "wc",
-                    "zeta", "stable", "seconds"])
+                   ["n", "indices", "J", *(f"VAF y{i + 1}" for i in range(len(names))),
+                    "mean VAF", "wc", "zeta", "stable", "seconds"])
     rows = []
     for i, st in enumerate(result.path):
         cells = [str(st.order), html.escape(str(list(st.indices))), f"{st.J:.4f}",
@@ -61,7 +81,9 @@ def path_table(result: IdentificationResult) -> str:
                  f"{st.eta[1]:.3f}", "yes" if st.stable else "no", f"{st.seconds:.2f}"]
         mark = ' class="selected"' if i == result.selected_index else ""
         rows.append(f"<tr{mark}>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
-    return f"<table><tr>{head}</tr>{''.join(rows)}</table>"
+    legend = ", ".join(f"y{i + 1} = {html.escape(name)}" for i, name in enumerate(names))
+    return (f"<div class='wide'><table><tr>{head}</tr>{''.join(rows)}</table></div>"
+            f"<p class='note'>Outputs: {legend}.</p>")
 
 
 def _model_facts(result: IdentificationResult) -> str:
@@ -76,10 +98,57 @@ def _model_facts(result: IdentificationResult) -> str:
         "filter (wc, zeta)": f"{model.info.get('wc', float('nan')):.4g}, "
                              f"{model.info.get('zeta', float('nan')):.3f}",
         "largest pole modulus": f"{radius:.4f} ({'stable' if model.is_stable() else 'UNSTABLE'})",
+        "selected by": result.selection,
     }
-    return "<table>" + "".join(
-        f"<tr><th>{html.escape(k)}</th><td>{html.escape(v)}</td></tr>" for k, v in facts.items()
-    ) + "</table>"
+    return _facts(facts)
+
+
+def _provenance(result: IdentificationResult, data_file: str | Path | None) -> str:
+    """Where the report came from: input, its SHA-256, the record's fingerprint, version, date."""
+    recorded = result.model.info.get("data", {})
+    rows = {"input": str(data_file) if data_file is not None else recorded.get("source", "not recorded")}
+    if data_file is not None:
+        rows["SHA-256 of the input file"] = file_sha256(data_file)
+    if "sha256" in recorded:
+        rows["SHA-256 of the estimation samples"] = recorded["sha256"]
+    rows["moli version"] = __version__
+    rows["written (UTC)"] = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M:%S")
+    return _facts(rows)
+
+
+def _scores_note(result: IdentificationResult) -> str:
+    """What VAF and fit are, and why VAF stops at 0."""
+    start = ("the zero initial state" if result.options.x0 == "zero" else
+             "a least-squares initial state fitted to the same outputs (so the scores are "
+             "a little optimistic)")
+    return f"""<p class="note"><b>VAF</b> (variance accounted for) of output <i>i</i>:
+100 &middot; (1 &minus; var(y<sub>i</sub> &minus; &ycirc;<sub>i</sub>) / var(y<sub>i</sub>)),
+clipped at 0. <b>Fit</b> (normalized root-mean-square): 100 &middot; (1 &minus;
+&Vert;y<sub>i</sub> &minus; &ycirc;<sub>i</sub>&Vert; / &Vert;y<sub>i</sub> &minus;
+mean(y<sub>i</sub>)&Vert;). Both compare the measured outputs y with a <b>simulation</b>
+&ycirc;: the model is driven by the measured inputs alone, from {start}, and never sees
+the measured outputs; this is not a one-step-ahead prediction, which scores much higher
+on the same model. VAF is clipped at 0 as the MOLI-ZOFT paper defines it: a model no
+better than the output's mean scores 0 whatever its error, so one diverging output cannot
+drag the mean VAF, and with it the choice of the order, arbitrarily far down. Fit is not
+clipped: a negative fit says how bad a bad output is. var removes the mean, so VAF ignores
+a constant offset in the error; fit counts it. Scores are percent, 100 is perfect.</p>"""
+
+
+def _options_table(result: IdentificationResult) -> str:
+    options = {name: str(value) for name, value in result.options.to_dict().items()}
+    options["nmax"] += f" (path ran to {result.nmax})" if result.options.nmax is None else ""
+    return _facts(options)
+
+
+def validation_caption(result: IdentificationResult) -> str:
+    """Caption of the measured-against-simulated figure: what is drawn, in which units."""
+    units = ("deviations from the estimation record's means (the model's operating point), "
+             "so the curves need not centre on zero" if result.options.center else
+             "the recorded values (IdentifyOptions.center is off: no offsets removed)")
+    return (f"Measured and simulated outputs on the validation record "
+            f"({html.escape(result.validation_source)}), with each output's VAF and fit (see "
+            f"above); simulation from the {result.options.x0} initial state; {units}.")
 
 
 def residual_section(analysis: ResidualAnalysis, figure_html: str) -> str:
@@ -113,6 +182,8 @@ def write_report(
     directory: str | Path,
     tried: Sequence[PathStep] = (),
     title: str = "moli identification report",
+    *,
+    data_file: str | Path | None = None,
 ) -> Path:
     """Write ``report.html`` and its figures (PNG) into ``directory``.
 
@@ -129,6 +200,9 @@ def write_report(
         drawn as dots on the VAF-against-order figure.
     title : str
         Heading of the report.
+    data_file : str or Path, optional
+        The file the record was read from: the report gives its name and SHA-256.
+        Default: the source recorded in ``result.model.info["data"]``, if any.
 
     Returns
     -------
@@ -151,12 +225,11 @@ def write_report(
                          "Mean validation VAF against the order: the greedy path"
                          + (" and every other list fitted (grey)." if tried else ".")),
         "validation": (figures.measured_vs_simulated(validation, comparison),
-                       f"Measured and simulated outputs on the validation record "
-                       f"({html.escape(result.validation_source)}); simulation from "
-                       f"{result.options.x0} initial state, offsets removed."),
+                       validation_caption(result)),
         "poles": (figures.poles(model), "Poles of the selected model and the unit circle."),
         "step_responses": (figures.step_responses(model, figures.settling_samples(model)),
-                           "Unit-step responses from each input to each output (deviations)."),
+                           "Unit-step responses from each input to each output, from rest "
+                           "(deviations from the operating point)."),
     }
     # at most the default 25 lags, fewer on a short validation record
     lags = min(25, validation.N // SAMPLES_PER_LAG - 1)
@@ -177,18 +250,26 @@ def write_report(
 <html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>
 <style>{STYLE}</style></head><body>
 <h1>{html.escape(title)}</h1>
-<p class="note">moli {__version__}; estimation {result.estimation.N} samples, validation
-{validation.N} samples ({html.escape(result.validation_source)}); total {result.seconds:.1f} s.</p>
+<p class="note">Estimation {result.estimation.N} samples, validation {validation.N} samples
+({html.escape(result.validation_source)}), Ts = {result.estimation.Ts:g}; total
+{result.seconds:.1f} s.</p>
+{_provenance(result, data_file)}
 {interrupted}
 <h2>Selected model</h2>{_model_facts(result)}
+<h2>How to read the scores</h2>
+{_scores_note(result)}
 <h2>Greedy structure path</h2>
-<p class="note">J: criterion on the estimation record; VAF: validation record, simulation,
-percent. Selected: lowest order within {result.options.order_tolerance:g} point of the best
-mean VAF.</p>
+<p class="note">J: the criterion on the estimation record (0 is perfect). VAF: validation
+record, simulation, percent. Selected: {html.escape(result.selection)}.</p>
 {path_table(result)}
 <h2>Figures</h2>
 {''.join(figures_html.values())}
-{residuals}</body></html>
+{residuals}
+<h2>Identification options</h2>
+<p class="note">Every field of IdentifyOptions (docs/method.md); the saved model records
+the same in info["options"].</p>
+{_options_table(result)}
+</body></html>
 """
     target = out / "report.html"
     target.write_text(page, encoding="utf-8")

@@ -14,7 +14,7 @@ from ..data.quality import screen
 from ..errors import ClosedLoopWarning, DataError, OptionError, OrderBoundWarning
 from ..models.delays import shift_inputs
 from ..models.statespace import StateSpaceModel
-from ..validation.comparison import compare
+from ..validation.comparison import compare, same_period
 from ..validation.delays import first_significant_lags
 from ..validation.feedback import feedback_check, usable_lags
 from .estimation import check_sample_count
@@ -84,6 +84,16 @@ class IdentificationResult:
         """The path step of the selected model."""
         return self.path[self.selected_index]
 
+    @property
+    def selection(self) -> str:
+        """How the selected model was chosen, in words."""
+        opts = self.options
+        if opts.order is not None and self.selected.order == opts.order:
+            return f"the fixed order n = {opts.order} (IdentifyOptions.order)"
+        if opts.order_rule == "paired":
+            return "lowest order within one paired standard error of the best validation error"
+        return f"lowest order within {opts.order_tolerance:g} point of the best mean validation VAF"
+
     def summary(self) -> str:
         """A readable table of the greedy path and the selection."""
         names = self.estimation.output_names
@@ -113,12 +123,9 @@ class IdentificationResult:
                 + f"{st.mean_vaf:>10.2f}{st.eta[0]:>9.4g}{st.eta[1]:>7.3f}{str(st.stable):>8}"
                 + f"{st.seconds:>8.3f}{mark}"
             )
-        rule = (f"lowest order within {opts.order_tolerance:g} point of the best mean validation VAF"
-                if opts.order_rule == "tolerance" else
-                "lowest order within one paired standard error of the best validation error")
         lines.append(
             f"selected: indices {list(self.selected.indices)} (n = {self.selected.order}), "
-            f"{rule}; total {self.seconds:.2f} s"
+            f"{self.selection}; total {self.seconds:.2f} s"
             + (" (interrupted: partial path)" if self.interrupted else "")
         )
         if self.selected.output_etas is not None:
@@ -199,12 +206,18 @@ def identify(
                 f"validation has {validation.p} outputs and {validation.m} inputs, "
                 f"data have {data.p} and {data.m}"
             )
+        if not same_period(validation.Ts, data.Ts):
+            raise DataError(f"validation is sampled every Ts = {validation.Ts:g}, data every "
+                            f"Ts = {data.Ts:g}; both records must share the sampling period")
         estimation, source = data, "given"
     if opts.center:
         estimation = estimation.remove_means()
         validation = validation.remove_means(estimation.y_offset, estimation.u_offset)
     p = estimation.p
-    nmax = max(10, p + 4) if opts.nmax is None else opts.nmax
+    if opts.order is not None and opts.order < p:
+        raise OptionError(f"IdentifyOptions.order must be at least the number of outputs, {p} "
+                          f"(the path starts at n = p); got {opts.order}")
+    nmax = opts.path_end(p)
     if nmax < p:
         raise OptionError(f"IdentifyOptions.nmax must be at least the number of outputs, {p}; got {nmax}")
     grid = default_omega(estimation.Ts) if opts.omega is None else np.array(opts.omega)
@@ -253,9 +266,10 @@ def identify(
 
     if opts.refine == "path" and not interrupted:
         path[:] = [refined(st) for st in path]
-    if opts.order_rule == "paired":
+    selected = _fixed_order(path, opts.order, interrupted)
+    if selected is None and opts.order_rule == "paired":
         selected = select_order_paired(path, scored, opts.x0)
-    else:
+    elif selected is None:
         selected = select_order(path, opts.order_tolerance)
     if opts.refine == "selected":
         path[selected] = refined(path[selected])
@@ -291,6 +305,23 @@ def _with_noise_model(model: StateSpaceModel, estimation: IOData) -> StateSpaceM
     except DataError as exc:
         model.info["noise_model"] = {"method": "none", "reason": str(exc)}
         return model
+
+
+def _fixed_order(path: list[PathStep], order: int | None, interrupted: bool) -> int | None:
+    """Position of the path step of the fixed ``order``; None to apply the order rule.
+
+    An interrupted search keeps the best model of the orders done, like one without a
+    fixed order; a complete path that stops short of ``order`` is an error.
+    """
+    if order is None:
+        return None
+    found = [i for i, step in enumerate(path) if step.order == order]
+    if found:
+        return found[0]
+    if interrupted:
+        return None
+    raise DataError(f"IdentifyOptions.order = {order} is not on the greedy path: the record has "
+                    f"too few samples for lists beyond n = {path[-1].order}")
 
 
 def _options(options: IdentifyOptions | None, overrides: dict[str, Any]) -> IdentifyOptions:

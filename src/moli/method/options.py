@@ -118,6 +118,10 @@ class IdentifyOptions:
         ``order_tolerance`` points of the best mean VAF, or the lowest order whose
         validation error is within one paired standard error of the best model's
         (:func:`moli.method.search.select_order_paired`).
+    order : int, optional
+        A fixed order: the path runs up to it (or to ``nmax``) and the model of this
+        order is selected instead of applying the order rule; at least ``p``, at most
+        ``nmax``. None: the order rule chooses.
     order_tolerance : float, default 1.0
         Points of mean validation VAF of the "tolerance" rule.
     omega : sequence of (wc, zeta), optional
@@ -179,6 +183,7 @@ class IdentifyOptions:
 
     nmax: int | None = None
     order_rule: str = "tolerance"
+    order: int | None = None
     order_tolerance: float = 1.0
     omega: tuple[tuple[float, float], ...] | None = None
     tuning: str = "grid"
@@ -210,6 +215,7 @@ class IdentifyOptions:
         checked = {
             "nmax": None if self.nmax is None else _integer("nmax", self.nmax, 1),
             "order_rule": _choice("order_rule", self.order_rule, ORDER_RULES),
+            "order": None if self.order is None else _integer("order", self.order, 1),
             "order_tolerance": _number("order_tolerance", self.order_tolerance,
                                        "a number >= 0 (points of VAF)", lambda t: t >= 0),
             "omega": _omega(self.omega),
@@ -231,8 +237,17 @@ class IdentifyOptions:
             "noise_model": _flag("noise_model", self.noise_model),
             "delays": _delays(self.delays),
         }
+        if checked["order"] is not None and checked["nmax"] is not None and checked["order"] > checked["nmax"]:
+            raise _fail("order", f"at most nmax = {checked['nmax']} (the end of the path)", self.order)
         for name, value in checked.items():
             object.__setattr__(self, name, value)
+
+    def path_end(self, p: int) -> int:
+        """The order the greedy path runs to for ``p`` outputs: ``nmax``, else ``order``,
+        else ``max(10, p + 4)``."""
+        if self.nmax is not None:
+            return self.nmax
+        return self.order if self.order is not None else max(10, p + 4)
 
     @classmethod
     def improved(cls, **changes: Any) -> "IdentifyOptions":

@@ -2,17 +2,22 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..data.iodata import IOData
-from ..errors import OptionError
+from ..errors import DataError, OptionError
 from .metrics import nrmse_fit, vaf
 from ..models.statespace import StateSpaceModel
 from .prediction import X0_CHOICES, check_horizon, deviations, initial_state, predicted_deviations
 
-__all__ = ["Comparison", "estimate_initial_state", "compare"]
+__all__ = ["Comparison", "estimate_initial_state", "compare", "same_period"]
+
+# Relative difference of two sampling periods still taken as the same: room for a
+# period written with fewer digits (0.1 against 0.1000000001), none for a real change.
+TS_TOLERANCE = 1e-6
 
 
 @dataclass(frozen=True)
@@ -61,6 +66,11 @@ def estimate_initial_state(model: StateSpaceModel, u: np.ndarray, y: np.ndarray)
     return initial_state(model, u, y)
 
 
+def same_period(a: float, b: float) -> bool:
+    """True when two sampling periods agree to a relative 1e-6."""
+    return math.isclose(a, b, rel_tol=TS_TOLERANCE)
+
+
 def compare(model: StateSpaceModel, data: IOData, x0: str = "zero", horizon: int | None = None) -> Comparison:
     """Simulate ``model`` on ``data``'s inputs and score it against the outputs.
 
@@ -72,7 +82,8 @@ def compare(model: StateSpaceModel, data: IOData, x0: str = "zero", horizon: int
     model : StateSpaceModel
     data : IOData
         Raw or centred data; the model's operating point is used to move between
-        the two (``data.u_offset``/``y_offset`` say what was already removed).
+        the two (``data.u_offset``/``y_offset`` say what was already removed). Its
+        ``Ts`` must be the model's (relative tolerance 1e-6).
     x0 : {"zero", "estimate"}
         Start the simulation from the zero state, or from the least-squares
         initial state fitted to this record (uses the outputs: say so when reporting).
@@ -83,6 +94,11 @@ def compare(model: StateSpaceModel, data: IOData, x0: str = "zero", horizon: int
     Returns
     -------
     Comparison
+
+    Raises
+    ------
+    DataError
+        The record's channel counts or sampling period differ from the model's.
 
     Examples
     --------
@@ -97,6 +113,11 @@ def compare(model: StateSpaceModel, data: IOData, x0: str = "zero", horizon: int
         raise OptionError(f"x0 must be one of {X0_CHOICES}, got {x0!r}")
     k = check_horizon(model, horizon)
     u, y = deviations(model, data)
+    if not same_period(data.Ts, model.Ts):
+        raise DataError(
+            f"the record is sampled every Ts = {data.Ts:g}, the model every Ts = {model.Ts:g}; "
+            "a discrete-time model only describes records of its own sampling period"
+        )
     ydev, start = predicted_deviations(model, u, y, k, x0)
     return Comparison(
         yhat=ydev + model.y_offset - data.y_offset, vaf=vaf(y, ydev), fit=nrmse_fit(y, ydev), x0=start,

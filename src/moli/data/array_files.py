@@ -1,0 +1,142 @@
+"""Files of named arrays: NumPy ``.npz`` archives and MATLAB ``.mat`` files.
+
+Each 1-D variable (or MATLAB column or row vector) is a column named after the
+variable. 2-D arrays ``u`` and ``y`` (time along axis 0) become columns ``u1, u2, ...``
+and ``y1, y2, ...`` and are the default channels. A scalar ``Ts`` is the sampling
+period. A MATLAB iddata saved as a struct (``s = get(data)`` or ``struct(data)``, then
+``save``) gives its channels under their ``InputName``/``OutputName`` and its ``Ts``.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .cells import parsing
+from .tables import Table
+from ..errors import DataError
+
+__all__ = ["read_npz", "read_mat"]
+
+IDDATA_FIELDS = {"OutputData", "InputData"}
+
+
+def _sample(index: int) -> str:
+    return f"sample {index}"
+
+
+def _stored_period(value: object, where: str) -> float | None:
+    """A stored sampling period: None when absent or empty, else a positive float."""
+    if value is None or np.size(value) == 0:
+        return None
+    array = np.asarray(value)
+    if array.size != 1 or array.dtype.kind not in "iuf" or not (np.isfinite(array) & (array > 0)).all():
+        raise DataError(f"{where} must be a positive number, got {value!r}")
+    return float(array.ravel()[0])
+
+
+def array_table(arrays: dict[str, object], source: str) -> Table:
+    """Columns of named arrays: vectors by name, ``u``/``y`` matrices split into channels."""
+    arrays = dict(arrays)
+    Ts = _stored_period(arrays.pop("Ts", None), f"the Ts stored in {source}")
+    columns: dict[str, np.ndarray] = {}
+    marked: dict[str, tuple[str, ...]] = {}
+    for name, value in arrays.items():
+        array = np.asarray(value)
+        if array.ndim == 2 and 1 in array.shape:
+            array = array.ravel()  # MATLAB stores vectors as (N, 1) or (1, N)
+        if name in ("u", "y") and array.ndim in (1, 2):
+            matrix = array.reshape(len(array), -1)
+            marked[name] = tuple(f"{name}{k + 1}" for k in range(matrix.shape[1]))
+            columns.update(zip(marked[name], matrix.T))
+        elif array.ndim == 1:
+            columns[name] = array
+    if set(marked) == {"u", "y"} and len(columns[marked["u"][0]]) != len(columns[marked["y"][0]]):
+        raise DataError(
+            f"{source}: u has {len(columns[marked['u'][0]])} rows and y "
+            f"{len(columns[marked['y'][0]])}; time runs along axis 0 (one row per sample)"
+        )
+    both = set(marked) == {"u", "y"}
+    return Table(columns, source, _sample, Ts,
+                 marked["u"] if both else None, marked["y"] if both else None)
+
+
+def read_npz(path: Path) -> Table:
+    """The arrays of a NumPy ``.npz`` archive (no pickled objects)."""
+    with parsing(path, "a NumPy .npz archive"):
+        loaded = np.load(path, allow_pickle=False)
+        if not hasattr(loaded, "files"):
+            raise DataError(f"{path} holds a single array (.npy), not an .npz archive of named "
+                            "arrays; save it with numpy.savez(path, u=..., y=...)")
+        with loaded as archive:
+            arrays = {name: archive[name] for name in archive.files}
+    if not arrays:
+        raise DataError(f"{path} holds no arrays")
+    for name, value in arrays.items():
+        if not isinstance(value, np.ndarray):
+            raise DataError(f"{path} is a zip archive but not a NumPy .npz: its member {name!r} "
+                            "is not an array")
+    return array_table(arrays, str(path))
+
+
+def _matrix(value: object, what: str) -> np.ndarray:
+    """A MATLAB data matrix as floats of shape (N, channels)."""
+    array = np.asarray(value)
+    if array.dtype == object:
+        raise DataError(f"{what} is a cell array of {array.size} experiments; moli reads one: "
+                        "save each experiment (getexp) in its own file")
+    if array.dtype.kind not in "biuf" or array.size == 0:
+        raise DataError(f"{what} must be a non-empty numeric matrix, got {array.dtype} of shape {array.shape}")
+    array = np.atleast_1d(array).astype(float)
+    return array.reshape(len(array), -1)
+
+
+def _channel_names(value: object, count: int, prefix: str) -> tuple[str, ...]:
+    """Names from an iddata's cell of names; ``prefix1, ...`` when absent or blank."""
+    names = tuple(str(name).strip() for name in np.atleast_1d(np.asarray(value, dtype=object))) \
+        if value is not None else ()
+    if len(names) != count or not all(names) or len(set(names)) != count:
+        return tuple(f"{prefix}{k + 1}" for k in range(count))
+    return names
+
+
+def iddata_table(name: str, struct: object, source: str) -> Table:
+    """The channels, names and period of an iddata saved as a MATLAB struct."""
+    where = f"{source} ({name})"
+    y = _matrix(getattr(struct, "OutputData"), f"{where}.OutputData")
+    u = _matrix(getattr(struct, "InputData"), f"{where}.InputData")
+    outputs = _channel_names(getattr(struct, "OutputName", None), y.shape[1], "y")
+    inputs = _channel_names(getattr(struct, "InputName", None), u.shape[1], "u")
+    if set(outputs) & set(inputs):
+        outputs = tuple(f"y{k + 1}" for k in range(y.shape[1]))
+        inputs = tuple(f"u{k + 1}" for k in range(u.shape[1]))
+    columns = {**dict(zip(outputs, y.T)), **dict(zip(inputs, u.T))}
+    Ts = _stored_period(getattr(struct, "Ts", None), f"{where}.Ts")
+    instants = getattr(struct, "SamplingInstants", None)
+    if Ts is None and instants is not None and "time" not in columns:
+        columns["time"] = np.asarray(instants, dtype=float).ravel()  # non-uniform iddata: the time axis
+    return Table(columns, source, _sample, Ts, inputs, outputs)
+
+
+def read_mat(path: Path) -> Table:
+    """The variables of a MATLAB ``.mat`` file (v4 to v7), or the iddata struct it holds."""
+    from scipy.io import loadmat
+    from scipy.io.matlab import mat_struct
+
+    with parsing(path, "a MATLAB .mat file"):
+        try:
+            content = loadmat(path, squeeze_me=True, struct_as_record=False)
+        except NotImplementedError:  # scipy's answer to the HDF5-based v7.3 format
+            raise DataError(f"{path} is a MATLAB v7.3 (HDF5) file; save it in MATLAB with "
+                            "save(name, ..., '-v7')") from None
+    variables = {key: value for key, value in content.items() if not key.startswith("__")}
+    if not variables:
+        raise DataError(f"{path} holds no variables")
+    structs = {key: value for key, value in variables.items()
+               if isinstance(value, mat_struct) and IDDATA_FIELDS <= set(value._fieldnames)}
+    if len(structs) > 1:
+        raise DataError(f"{path} holds several iddata structs ({', '.join(structs)}); keep one per file")
+    if structs:
+        return iddata_table(*structs.popitem(), str(path))
+    return array_table(variables, str(path))

@@ -1,0 +1,258 @@
+"""Text tables (.csv, .tsv, .txt): encoding, delimiter and decimal mark, then pandas.
+
+The file is decoded here (byte-order mark, else UTF-8, else charset-normalizer's
+guess, or the encoding given), the delimiter and the decimal mark are sniffed from its
+first lines unless given, and pandas parses the text. Line numbers in messages count
+every line of the file from 1, the header included.
+"""
+
+from __future__ import annotations
+
+import codecs
+import csv
+import dataclasses
+import functools
+import io
+import itertools
+import re
+from pathlib import Path
+from typing import Callable, Iterator
+
+from .cells import optional
+from .tables import Table, check_header, frame_table
+from ..errors import DataError, OptionError
+
+__all__ = ["detect_encoding"]
+
+# Byte-order marks, the 4-byte UTF-32 ones before UTF-16's that they begin with.
+BOMS = (
+    (codecs.BOM_UTF32_LE, "utf-32"), (codecs.BOM_UTF32_BE, "utf-32"),
+    (codecs.BOM_UTF8, "utf-8-sig"),
+    (codecs.BOM_UTF16_LE, "utf-16"), (codecs.BOM_UTF16_BE, "utf-16"),
+)
+# The encoding detector reads this much of a file; a plant record's header and first
+# rows are text enough, and the detector's time grows with its input.
+DETECT_BYTES = 1 << 18
+WHITESPACE = r"\s+"
+# Tried in this order: a file with decimal commas separates its columns with ";" or a
+# tab, so those win over "," when several split every line alike.
+DELIMITERS = ("\t", ";", ",", "|")
+DELIMITER_NAMES = {"tab": "\t", "comma": ",", "semicolon": ";", "space": WHITESPACE,
+                   "whitespace": WHITESPACE}
+DECIMALS = (".", ",")
+# The delimiter and decimal mark are sniffed from the header and this many lines.
+SNIFF_LINES = 50
+# Without a byte-order mark or valid UTF-8, the detector chooses among these: the code
+# pages plant software writes. Rare ones are left out, since on a few words of text
+# the detector would otherwise find, say, Urdu as likely as French.
+LEGACY_ENCODINGS = (
+    "cp1250", "cp1251", "cp1253", "cp1254", "cp1255", "cp1256", "cp1257", "cp1258", "cp874",
+    "koi8_r", "koi8_u", "cp866", "cp932", "euc_jp", "gb18030", "big5", "cp949",
+)
+# Words that have accented letters, read as cp1252, have at most this share of them
+# in a Western European language.
+WESTERN_SHARE = 0.5
+WORD = re.compile(r"[^\W\d_]+")
+LINE = re.compile(r"([^\r\n]*)(?:\r\n|\r|\n|$)")
+# Characters that never occur in a text table: their presence means binary data.
+CONTROL = re.compile(r"[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")
+COMMA_NUMBER = re.compile(r"^[+-]?\d*,\d+(?:[eE][+-]?\d+)?$")
+POINT_NUMBER = re.compile(r"^[+-]?\d*\.\d+(?:[eE][+-]?\d+)?$")
+
+
+def check_text_options(delimiter: object, decimal: object, encoding: object) -> tuple[str | None, str | None, str | None]:
+    """The delimiter, decimal mark and encoding asked for, or an error saying what is accepted."""
+    if delimiter is not None:
+        if not isinstance(delimiter, str) or not (
+            delimiter.lower() in DELIMITER_NAMES
+            or len(delimiter) == 1 and not delimiter.isalnum() and delimiter not in '."'
+        ):
+            raise OptionError(
+                f"delimiter must be one character such as ',' ';' '|' or a tab, or one of "
+                f"{', '.join(DELIMITER_NAMES)}; got {delimiter!r}"
+            )
+        delimiter = DELIMITER_NAMES.get(delimiter.lower(), delimiter)
+    if decimal is not None and decimal not in DECIMALS:
+        raise OptionError(f"decimal must be '.' or ',', got {decimal!r}")
+    if delimiter is not None and delimiter == decimal:
+        raise OptionError(f"the delimiter and the decimal mark are both {decimal!r}")
+    if encoding is not None:
+        try:
+            encoding = codecs.lookup(str(encoding)).name
+        except LookupError:
+            raise OptionError(f"unknown encoding {encoding!r}; e.g. utf-8, utf-16, latin-1, "
+                              "cp1252") from None
+    return delimiter, decimal, encoding  # type: ignore[return-value]
+
+
+def _sample(raw: bytes) -> bytes:
+    """The head of ``raw`` for the detector, cut after a line end (and its UTF-16 zero byte)."""
+    if len(raw) <= DETECT_BYTES:
+        return raw
+    end = raw.rfind(b"\n", 0, DETECT_BYTES) + 1 or DETECT_BYTES
+    return raw[: end + 1] if raw[end:end + 1] == b"\x00" else raw[:end]
+
+
+def _decodes(raw: bytes, encoding: str) -> bool:
+    try:
+        raw.decode(encoding)
+    except UnicodeDecodeError:
+        return False
+    return True
+
+
+def _western(text: str) -> bool:
+    """True when ``text`` reads as a Western European language in which it was decoded.
+
+    Words with accented letters keep most of their letters plain in Western languages
+    ("température", "Durchfluß"); Cyrillic, Greek or East Asian bytes read as cp1252
+    give words of accented letters only ("âðåìÿ"). Each word counts once, so a status
+    word repeated on every row weighs no more than a column name.
+    """
+    words = {word for word in WORD.findall(text) if not word.isascii()}
+    letters = sum(len(word) for word in words)
+    accented = sum(not char.isascii() for word in words for char in word)
+    return accented <= WESTERN_SHARE * letters
+
+
+def detect_encoding(raw: bytes) -> str:
+    """The text encoding of a file's bytes.
+
+    A byte-order mark decides (UTF-8, UTF-16, UTF-32). Otherwise bytes that are valid
+    UTF-8 are UTF-8 (plain ASCII included). Zero bytes mean UTF-16 or UTF-32 without a
+    mark, which charset-normalizer tells apart. Other bytes are read as the Windows
+    Western code page cp1252 (Latin-1 where cp1252 leaves a byte undefined) when that
+    gives words of a Western European language; if not, charset-normalizer chooses
+    among the common legacy code pages (Cyrillic, Greek, Central European, Japanese,
+    Chinese, Korean...). A few accented letters cannot tell cp1252 from other Latin
+    code pages such as cp1250, nor can a handful of East Asian characters identify
+    their encoding: give the encoding when column names come out wrong.
+
+    Parameters
+    ----------
+    raw : bytes
+        The file's content (or its beginning).
+
+    Returns
+    -------
+    str
+        A name :func:`codecs.lookup` knows.
+
+    Examples
+    --------
+    >>> detect_encoding("temps;température\\n0;1\\n".encode("utf-16"))
+    'utf-16'
+    >>> detect_encoding("temps;température\\n0;1\\n".encode("latin-1"))
+    'cp1252'
+    """
+    for bom, name in BOMS:
+        if raw.startswith(bom):
+            return name
+    if b"\x00" not in raw and _decodes(raw, "utf-8"):
+        return "utf-8"
+    western = "cp1252" if _decodes(raw, "cp1252") else "latin-1"
+    if b"\x00" not in raw and _western(raw.decode(western)):
+        return western
+    detector = optional("charset_normalizer", "detecting the encoding of a text file")
+    candidates = None if b"\x00" in raw else list(LEGACY_ENCODINGS)
+    best = detector.from_bytes(_sample(raw), cp_isolation=candidates).best()
+    return western if best is None else best.encoding
+
+
+def _decode(raw: bytes, encoding: str, path: Path, given: bool) -> str:
+    try:
+        text = raw.decode(encoding)
+    except UnicodeDecodeError as exc:
+        line = raw[: exc.start].count(b"\n") + 1
+        how = "" if given else " (detected)"
+        raise DataError(
+            f"{path} is not {encoding}{how} text: byte 0x{raw[exc.start]:02x} on line {line} "
+            "does not decode; give the file's encoding (encoding= or --encoding), e.g. utf-8, "
+            "utf-16, cp1252"
+        ) from None
+    bad = CONTROL.search(text, 0, DETECT_BYTES)  # binary data shows at once; later junk fails as cells
+    if bad:
+        line = text.count("\n", 0, bad.start()) + 1
+        raise DataError(
+            f"{path} is not a text table: it holds binary data (character "
+            f"0x{ord(bad.group()):02x} on line {line} as {encoding}); is it the right file, or "
+            "another format with the wrong suffix?"
+        )
+    return text
+
+
+def _fields(line: str, delimiter: str) -> list[str]:
+    if delimiter == WHITESPACE:
+        return line.split()
+    return next(csv.reader([line], delimiter=delimiter))
+
+
+def sniff_delimiter(lines: list[str]) -> str:
+    """The first delimiter of :data:`DELIMITERS` (else whitespace) that splits every line
+    into the same number (> 1) of fields; failing that, the one that splits the header most.
+    """
+    for delimiter in (*DELIMITERS, WHITESPACE):
+        counts = {len(_fields(line, delimiter)) for line in lines}
+        if len(counts) == 1 and counts.pop() > 1:
+            return delimiter
+    return max(DELIMITERS, key=lambda d: len(_fields(lines[0], d)))
+
+
+def sniff_decimal(lines: list[str], delimiter: str) -> str:
+    """"," when some cell is a number written with a decimal comma and none with a point."""
+    if delimiter == ",":
+        return "."
+    cells = [cell.strip() for line in lines for cell in _fields(line, delimiter)]
+    comma = any(COMMA_NUMBER.match(cell) for cell in cells)
+    point = any(POINT_NUMBER.match(cell) for cell in cells)
+    return "," if comma and not point else "."
+
+
+def _shown(delimiter: str) -> str:
+    return {"\t": "tab", WHITESPACE: "whitespace"}.get(delimiter, repr(delimiter))
+
+
+def _numbered(text: str) -> Iterator[tuple[int, str]]:
+    """The non-blank lines of ``text`` with their numbers from 1 (any line ending), lazily."""
+    for number, match in enumerate(LINE.finditer(text), start=1):
+        if match.group(1).strip():
+            yield number, match.group(1)
+
+
+def _line_locator(text: str, rows: int) -> Callable[[int], str]:
+    """Names data row ``k`` by its line in the file; lines are counted on first use, since
+    only messages need them."""
+
+    @functools.cache
+    def lines() -> list[int]:
+        return [number for number, _ in _numbered(text)][1:]
+
+    def row(k: int) -> str:
+        # a quoted cell spanning lines would shift the count: name the data row instead
+        return f"line {lines()[k]}" if len(lines()) == rows else f"data row {k + 1}"
+
+    return row
+
+
+def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: str | None) -> Table:
+    """The columns of a text table, every cell located by its line in the file."""
+    raw = path.read_bytes()
+    text = _decode(raw, encoding or detect_encoding(raw), path, encoding is not None)
+    head = [line for _, line in itertools.islice(_numbered(text), SNIFF_LINES + 1)]
+    if not head:
+        raise DataError(f"{path} is empty; expected a header row with column names")
+    delimiter = delimiter or sniff_delimiter(head)
+    decimal = decimal or sniff_decimal(head[1:], delimiter)
+    if decimal == delimiter:
+        raise DataError(f"{path}: the delimiter and the decimal mark are both {decimal!r}; "
+                        "give them (delimiter=, decimal= or --delimiter, --decimal)")
+    pd = optional("pandas", f"reading {path.name}")
+    try:
+        frame = pd.read_csv(io.StringIO(text), sep=delimiter, decimal=decimal, index_col=False,
+                            skipinitialspace=True, skip_blank_lines=True, low_memory=False)
+    except ValueError as exc:  # pandas' ParserError and EmptyDataError are ValueErrors
+        raise DataError(f"cannot read {path} as a table with {_shown(delimiter)} between "
+                        f"columns: {exc}") from None
+    check_header(list(frame.columns), str(path))
+    table = frame_table(frame, str(path), _line_locator(text, len(frame)))
+    return dataclasses.replace(table, decimal=decimal)
