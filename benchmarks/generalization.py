@@ -64,6 +64,26 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "default": {},
     "tol0": {"order_tolerance": 0.0},
     "tol05": {"order_tolerance": 0.5},
+    "paired": {"order_rule": "paired"},
+    "damped": {"filter_grid": "damped"},
+    "wide": {"filter_grid": "wide"},
+    "tol0_damped": {"order_tolerance": 0.0, "filter_grid": "damped"},
+    "tol0_wide": {"order_tolerance": 0.0, "filter_grid": "wide"},
+    "tol0_wide3": {"order_tolerance": 0.0, "filter_grid": "wide3"},
+    "tol0_wider": {"order_tolerance": 0.0, "filter_grid": "wider"},
+    "tol0_widez": {"order_tolerance": 0.0, "filter_grid": "widez"},
+    "tol0_wide_trend0": {"order_tolerance": 0.0, "filter_grid": "wide", "trend_degree": 0},
+    "tol0_wide_refine": {"order_tolerance": 0.0, "filter_grid": "wide", "refine": True},
+    "tol05_wide": {"order_tolerance": 0.5, "filter_grid": "wide"},
+    "paired_wide": {"order_rule": "paired", "filter_grid": "wide"},
+    "tol0_wide_guarded": {"order_tolerance": 0.0, "filter_grid": "wide", "refine": "guarded"},
+    "tol0_wide_zoom": {"order_tolerance": 0.0, "filter_grid": "wide", "tuning": "zoom", "iterations": 2},
+    "tol0_wide_shared": {"order_tolerance": 0.0, "filter_grid": "wide", "output_filters": False},
+    "tol0_wide_s3": {"order_tolerance": 0.0, "filter_grid": "wide", "s": 3.0},
+    "tol0_wide_r999": {"order_tolerance": 0.0, "filter_grid": "wide", "max_radius": 0.999},
+    "tol0_wide_trend1": {"order_tolerance": 0.0, "filter_grid": "wide", "trend_degree": 1},
+    "paired_refine": {"order_rule": "paired", "refine": True},
+    "tol0_refine": {"order_tolerance": 0.0, "refine": True},
     "noft": {"feedthrough": False},
     "trend0": {"trend_degree": 0},
     "paper": {"preset": "paper"},
@@ -94,25 +114,33 @@ def run_moli(case: gc.Case, half: int, nmax: int, options: dict[str, Any]) -> Li
     return line
 
 
-def run_case(case: gc.Case, variants: dict[str, dict[str, Any]]) -> Line:
-    """Peers once, then every moli variant, on one case."""
-    half, (p, m) = case.val.N // 2, (case.est.p, case.est.m)
-    nmax = gc.nmax_rule(p, m, case.est.N)
+PEER_KEYS = ("peer_seconds", "best_peer", "peers")
+
+
+def run_peers(case: gc.Case, half: int, nmax: int) -> Line:
+    """Every peer setting and order on E, the best on V1; scored on V2 (and the truth)."""
     y_mean, u_mean = case.est.y.mean(axis=0), case.est.u.mean(axis=0)
     centred = (case.est.y - y_mean, case.est.u - u_mean, case.val.y - y_mean, case.val.u - u_mean)
     start = time.perf_counter()
     peers = {name: gc.peer_sweep(fit, *centred, half, nmax) for name, fit in gc.PEERS.items()}
-    line: Line = {"name": case.name, "group": case.group, "N": case.est.N, "p": p, "m": m,
-                  "nmax": nmax, **case.meta, "peer_seconds": time.perf_counter() - start}
+    seconds = time.perf_counter() - start
     ok = {name: sweep for name, sweep in peers.items() if not sweep["failed"]}
     for sweep in ok.values():
         if case.truth is not None:
             sweep.update(gc.true_scores(case, sweep["model"]))
         del sweep["model"]
     best = max(ok, key=lambda name: ok[name]["v1"]) if ok else None  # ties: first setting
-    line["best_peer"] = None if best is None else {"setting": best, **{
-        k: v for k, v in ok[best].items() if k in ("order", "v1", "v2", "stable", "true_fit", "h2")}}
-    line["peers"] = peers
+    return {"peer_seconds": seconds, "peers": peers, "best_peer": None if best is None else {
+        "setting": best,
+        **{k: v for k, v in ok[best].items() if k in ("order", "v1", "v2", "stable", "true_fit", "h2")}}}
+
+
+def run_case(case: gc.Case, variants: dict[str, dict[str, Any]], peers: Line | None = None) -> Line:
+    """Peers once (or as recorded by an earlier run), then every moli variant, on one case."""
+    half, (p, m) = case.val.N // 2, (case.est.p, case.est.m)
+    nmax = gc.nmax_rule(p, m, case.est.N)
+    line: Line = {"name": case.name, "group": case.group, "N": case.est.N, "p": p, "m": m,
+                  "nmax": nmax, **case.meta, **(peers or run_peers(case, half, nmax))}
     line["moli"] = {name: run_moli(case, half, nmax, options) for name, options in variants.items()}
     return line
 
@@ -299,6 +327,9 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=2, help="parallel workers (loky)")
     parser.add_argument("--quick", action="store_true", help="a few cases, for a smoke run")
     parser.add_argument("--out", default="bench-results", help="folder of the results")
+    parser.add_argument("--peers-from", metavar="JSON",
+                        help="reuse the peers' results of an earlier run's generalization.json "
+                             "(same cases: the peers are deterministic), to compare moli variants fast")
     args = parser.parse_args()
     chosen = args.variants.split(",")
     unknown = [v for v in chosen if v not in VARIANTS]
@@ -309,10 +340,17 @@ def main() -> None:
     for name, reason in gc.DAISY_SKIPPED.items():
         print(f"skipped {name}: {reason}")
     cases = build_cases(args.synthetic, args.seed, args.quick)
+    recorded: dict[str, Line] = {}
+    if args.peers_from:
+        recorded = {res["name"]: {k: res[k] for k in PEER_KEYS}
+                    for res in json.loads(Path(args.peers_from).read_text())["cases"]}
+        missing = [c.name for c in cases if c.name not in recorded]
+        if missing:
+            parser.error(f"{args.peers_from} lacks the cases {missing[:5]}...; run without --peers-from")
     order = sorted(range(len(cases)), key=lambda i: -cost(cases[i]))
     results: dict[int, Line] = {}
     jobs = Parallel(n_jobs=args.jobs, backend="loky", return_as="generator")(
-        delayed(run_case)(cases[i], variants) for i in order)
+        delayed(run_case)(cases[i], variants, recorded.get(cases[i].name)) for i in order)
     for i, line in zip(order, jobs):
         results[i] = line
         bp = line["best_peer"]

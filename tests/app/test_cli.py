@@ -107,7 +107,7 @@ def test_fit_preset_gives_the_api_model(tmp_path, csv_file, record):
     assert moli.IdentifyOptions.from_dict(saved.info["options"]) == moli.IdentifyOptions.paper(nmax=NMAX)
     # an unknown choice is a usage error, reported by click with the valid choices
     wrong = run("fit", str(csv_file), "--preset", "fast")
-    assert wrong.exit_code == 2 and "'fast' is not one of 'improved', 'bounded', 'paper'" in wrong.stderr
+    assert wrong.exit_code == 2 and "'fast' is not one of 'default', 'improved', 'bounded', 'paper'" in wrong.stderr
 
 
 def test_ctrl_c_keeps_the_best_model_so_far(tmp_path, csv_file, monkeypatch):

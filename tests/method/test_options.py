@@ -19,6 +19,7 @@ BAD = {
     "order_tolerance": ("1", -0.5),
     "omega": (3.0, [(0.1, -0.7)]),
     "tuning": (1, "grid-search"),
+    "filter_grid": (2, "fine"),
     "iterations": (2.5, 0),
     "s": ("2", 1.0),
     "seed": (1.5, -1),
@@ -80,7 +81,10 @@ def test_presets_show_what_they_set():
     assert (paper.tuning, paper.feedthrough, paper.max_radius, paper.trend_degree, paper.output_filters) == (
         "random", False, None, 0, False)
     assert "tuning='random'" in repr(paper) and "feedthrough=False" in repr(paper)
-    assert IdentifyOptions.preset("improved") == IdentifyOptions() == IdentifyOptions.improved()
+    assert IdentifyOptions.preset("default") == IdentifyOptions() == IdentifyOptions.default()
+    # the earlier default differs from today's in exactly the three choices it was tuned on
+    changed = {k for k, v in IdentifyOptions.improved().to_dict().items() if IdentifyOptions().to_dict()[k] != v}
+    assert changed == {"order_tolerance", "filter_grid", "refine"}
     assert IdentifyOptions.preset("bounded", nmax=4) == IdentifyOptions.bounded().replace(nmax=4)
     with pytest.raises(OptionError, match="preset must be one of"):
         IdentifyOptions.preset("fast")

@@ -167,7 +167,7 @@ def identify(
     **overrides
         Fields of :class:`IdentifyOptions` changed for this call:
         ``identify(est, val, nmax=12)`` is ``identify(est, val, IdentifyOptions(nmax=12))``.
-        ``preset="paper"`` (or "bounded", "improved") starts from that preset instead
+        ``preset="paper"`` (or "bounded", "improved", "default") starts from that preset instead
         of the default; it cannot be combined with ``options``.
 
     Returns
@@ -220,7 +220,7 @@ def identify(
     nmax = opts.path_end(p)
     if nmax < p:
         raise OptionError(f"IdentifyOptions.nmax must be at least the number of outputs, {p}; got {nmax}")
-    grid = default_omega(estimation.Ts) if opts.omega is None else np.array(opts.omega)
+    grid = default_omega(estimation.Ts, opts.filter_grid) if opts.omega is None else np.array(opts.omega)
     radius = opts.max_radius
     if radius == "auto":
         radius = float(np.exp(-AUTO_RADIUS_SPAN / estimation.N))
@@ -273,6 +273,10 @@ def identify(
         selected = select_order(path, opts.order_tolerance)
     if opts.refine == "selected":
         path[selected] = refined(path[selected])
+    elif opts.refine == "guarded":
+        candidate = refined(path[selected])
+        if candidate.mean_vaf > path[selected].mean_vaf:
+            path[selected] = candidate
     if opts.noise_model:  # on the delay-free model and the shifted record it was fitted on
         path[selected] = replace(path[selected], model=_with_noise_model(path[selected].model, fitted))
     if any(delays):

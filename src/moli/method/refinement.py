@@ -25,6 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg
 
 from ..data.iodata import IOData
 from ..errors import DataError, OptionError
@@ -87,10 +88,14 @@ def observer_form(model: StateSpaceModel) -> ObserverForm:
     C_D = np.zeros((p, n))
     last = np.cumsum(indices) - 1
     C_D[np.arange(p), last] = 1.0
-    inverse = model.C[:, last]              # (I - G)^-1, unit lower triangular
-    G = np.eye(p) - np.linalg.inv(inverse)  # p x p triangular, p small
-    G = np.tril(G, -1)
-    D = np.linalg.lstsq(model.C.T, (model.A - A_D).T, rcond=None)[0].T
+    # C = H C_D with H = (I - G)^-1 unit lower triangular and C_D picking each block's
+    # last state, so A - A_D = D C has its only nonzero columns there: D = (A - A_D)[:, last] H^-1.
+    # Triangular solves keep this exact whatever the outputs' units (a least-squares
+    # fit on C loses the small entries when the outputs' scales differ by many decades).
+    H = model.C[:, last]
+    H_inv = scipy.linalg.solve_triangular(H, np.eye(p), lower=True, unit_diagonal=True)
+    G = np.tril(np.eye(p) - H_inv, -1)
+    D = (model.A - A_D)[:, last] @ H_inv
     return ObserverForm(A_D, C_D, D, model.B.copy(), G, model.D.copy())
 
 
@@ -148,7 +153,9 @@ class _Problem:
         self.feedthrough = bool(np.any(form.F != 0))
         self.u, self.y = u, y
         self.n, self.p, self.m = form.B.shape[0], y.shape[1], u.shape[1]
-        self.weights = 1.0 / np.maximum(np.linalg.norm(y, axis=0), 1e-300)
+        norms = np.linalg.norm(y, axis=0)
+        # a constant (zero after centring) output has no scale of its own: unit weight
+        self.weights = 1.0 / np.where(norms > 0, norms, 1.0)
         self.fit_x0 = fit_x0
         self.lower = np.tril_indices(self.p, -1)
 
@@ -311,15 +318,20 @@ def refine(
             # |jac s - residual| = |T[:, :-1] s - T[:, -1]| for the triangular factor T
             # of [jac, residual]: each damping tried below solves a problem of the
             # parameters' size instead of the record's
+            if not (np.all(np.isfinite(jac)) and np.all(np.isfinite(residual))):
+                break                           # nothing sound to step along: keep what we have
             reduced = np.linalg.qr(np.column_stack([jac, residual]), mode="r")
             improved = False
             while damping < 1e8:
-                rows = [reduced[:, :-1], np.diag(np.sqrt(damping) * norms)]
+                # solved for the step in units of each column's norm: the parameters'
+                # scales (the record's units) then leave the solution unchanged, where
+                # lstsq's rank cut-off on the raw columns would drop the small ones
+                rows = [reduced[:, :-1] / norms, np.sqrt(damping) * np.eye(theta.size)]
                 rhs = [reduced[:, -1], np.zeros(theta.size)]
                 if ridge > 0:
-                    rows.append(np.diag(penalty * scale))
+                    rows.append(np.diag(penalty * scale / norms))
                     rhs.append(-penalty * scale * (theta - theta0))
-                step = np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)[0]
+                step = np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)[0] / norms
                 trial = theta + step
                 new_yhat, (A, _, _), _ = problem.simulate(trial)
                 if np.max(np.abs(np.linalg.eigvals(A))) >= max_radius:

@@ -28,19 +28,37 @@ PAPER_ZETAS = (0.6, 0.7, 1.1)
 PAPER_WCS_PER_TS = tuple(0.02 * np.pi * 10 ** (0.25 * k) for k in range(6))
 
 
-def default_omega(Ts: float = 1.0) -> np.ndarray:
-    """The paper's 18-point evaporator grid with frequencies scaled to ``Ts``.
+# Candidate families of default_omega: cutoffs as powers 10**(k/4) of 0.02*pi per Ts,
+# and dampings. "paper" is the evaporator grid; the others add lightly damped
+# candidates and (wide) a decade more of cutoffs.
+GRIDS = {
+    "paper": (range(6), PAPER_ZETAS),
+    "damped": (range(6), (0.1, 0.3) + PAPER_ZETAS),
+    "wide": (range(-2, 7), (0.1, 0.3) + PAPER_ZETAS),
+    "wide3": (range(-2, 7), PAPER_ZETAS),
+    "wider": (range(-4, 7), (0.1, 0.3) + PAPER_ZETAS),
+    "widez": (range(-2, 7), (0.05, 0.1, 0.2, 0.3, 0.5, 0.7, 1.1, 1.5)),
+}
 
-    Cutoffs span 0.02*pi/Ts to 0.355*pi/Ts (1 % to 18 % of the sampling frequency,
-    log-spaced), dampings 0.6, 0.7, 1.1: the range holds the dominant dynamics of
-    plants sampled 5 to 50 times per time constant.
+
+def default_omega(Ts: float = 1.0, family: str = "paper") -> np.ndarray:
+    """A grid of filter candidates with frequencies scaled to ``Ts``.
+
+    "paper": the paper's 18-point evaporator grid. Cutoffs span 0.02*pi/Ts to
+    0.355*pi/Ts (1 % to 18 % of the sampling frequency, log-spaced), dampings 0.6, 0.7,
+    1.1: the range holds the dominant dynamics of plants sampled 5 to 50 times per
+    time constant. "damped" adds the dampings 0.1 and 0.3 (30 points); "wide" also
+    spans cutoffs from 0.0063*pi/Ts to 0.63*pi/Ts (45 points).
 
     Returns
     -------
-    ndarray, shape (18, 2)
+    ndarray, shape (R, 2)
         Rows ``(wc, zeta)``, wc in rad per time unit of ``Ts``.
     """
-    return grid(np.array(PAPER_WCS_PER_TS) / Ts, PAPER_ZETAS)
+    if family not in GRIDS:
+        raise OptionError(f"family must be one of {tuple(GRIDS)}, got {family!r}")
+    powers, zetas = GRIDS[family]
+    return grid(np.array([0.02 * np.pi * 10 ** (0.25 * k) for k in powers]) / Ts, zetas)
 
 
 def grid(wcs: Sequence[float], zetas: Sequence[float]) -> np.ndarray:
