@@ -30,10 +30,11 @@ _HOMES = {
     "StateSpaceModel": "models", "load_model": "models",
     "Comparison": "validation", "compare": "validation", "cost_j": "validation",
     "nrmse_fit": "validation", "vaf": "validation", "predict": "validation",
-    "residual_analysis": "validation", "ResidualAnalysis": "validation",
+    "residual_analysis": "validation", "ResidualAnalysis": "validation", "simulation_bands": "validation",
     "estimate": "method", "divisor": "method", "divisors": "method",
     "filter_polynomial": "method", "IdentificationResult": "method", "identify": "method",
     "IdentifyOptions": "method", "PathStep": "method", "estimate_noise_model": "method",
+    "estimate_covariance": "method",
     "RecursiveMoli": "streaming", "ChunkedEstimator": "streaming", "FilterBank": "streaming",
     "example_data": "systems", "example_plant": "systems", "experiment": "systems",
 }
@@ -54,13 +55,14 @@ if TYPE_CHECKING:  # what the lazy names are, for type checkers and IDEs
     )
     from .method import (
         IdentificationResult, IdentifyOptions, PathStep, divisor, divisors, estimate,
-        estimate_noise_model, filter_polynomial, identify,
+        estimate_covariance, estimate_noise_model, filter_polynomial, identify,
     )
     from .models import StateSpaceModel, load_model
     from .streaming import ChunkedEstimator, FilterBank, RecursiveMoli
     from .systems import example_data, example_plant, experiment
     from .validation import (
-        Comparison, ResidualAnalysis, compare, cost_j, nrmse_fit, predict, residual_analysis, vaf,
+        Comparison, ResidualAnalysis, compare, cost_j, nrmse_fit, predict, residual_analysis,
+        simulation_bands, vaf,
     )
 
 

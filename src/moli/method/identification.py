@@ -21,6 +21,7 @@ from .refinement import MAX_RADIUS
 from .refinement import refine as refine_model
 from .search import PathStep, StructureSearch, greedy_path, select_order, select_order_paired
 from .tuning import default_omega
+from .uncertainty import estimate_covariance
 
 __all__ = ["IdentificationResult", "identify"]
 
@@ -247,6 +248,7 @@ def identify(
         selected = select_order(path, opts.order_tolerance)
     if opts.refine == "selected":
         path[selected] = refined(path[selected])
+    path[selected] = replace(path[selected], model=_with_covariance(path[selected].model, estimation))
     if opts.noise_model:
         path[selected] = replace(path[selected], model=_with_noise_model(path[selected].model, estimation))
     model = path[selected].model
@@ -275,6 +277,15 @@ def _with_noise_model(model: StateSpaceModel, estimation: IOData) -> StateSpaceM
         return estimate_noise_model(model, estimation)
     except DataError as exc:
         model.info["noise_model"] = {"method": "none", "reason": str(exc)}
+        return model
+
+
+def _with_covariance(model: StateSpaceModel, estimation: IOData) -> StateSpaceModel:
+    """``model`` with the covariance of its matrices, or unchanged with the reason in ``info``."""
+    try:
+        return estimate_covariance(model, estimation)
+    except DataError as exc:
+        model.info["covariance"] = {"method": "none", "reason": str(exc)}
         return model
 
 

@@ -12,6 +12,7 @@ import numpy as np
 from .._version import __version__
 from ..data.iodata import as_signal
 from ..errors import DataError, ModelFileError, OptionError, UnstableModelWarning
+from .bands import magnitude_bands, step_bands
 from .simulation import simulate_batch
 
 __all__ = ["StateSpaceModel", "model_from_dict", "load_model"]
@@ -73,6 +74,11 @@ class StateSpaceModel:
     noise_cov : array_like, optional
         Covariance of the innovations ``e``, shape (p, p), symmetric positive
         semidefinite; given together with ``K``.
+    cov_factor : array_like, optional
+        Uncertainty of the matrices: ``Cov(vec) = cov_factor @ cov_factor.T`` for
+        ``vec = [A.ravel(), B.ravel(), C.ravel(), D.ravel()]``, shape
+        (n n + n m + p n + p m, r) (docs/uncertainty.md). :func:`moli.identify` and
+        :func:`moli.estimate` attach it; None (the default): no covariance, no bands.
 
     Examples
     --------
@@ -99,6 +105,7 @@ class StateSpaceModel:
         divisors: Sequence[Sequence[float]] | None = None,
         K: object | None = None,
         noise_cov: object | None = None,
+        cov_factor: object | None = None,
     ) -> None:
         self.A = _matrix("A", A)
         n = self.A.shape[0]
@@ -127,6 +134,10 @@ class StateSpaceModel:
             raise DataError("K and noise_cov make the noise model together: give both or neither")
         self.K = None if K is None else _matrix("K", K, (n, p))
         self.noise_cov = None if noise_cov is None else _covariance(noise_cov, p)
+        self.cov_factor = None if cov_factor is None else _matrix("cov_factor", cov_factor)
+        if self.cov_factor is not None and self.cov_factor.shape[0] != n * n + n * m + p * n + p * m:
+            raise DataError(f"cov_factor needs one row per entry of A, B, C and D "
+                            f"({n * n + n * m + p * n + p * m}), got {self.cov_factor.shape[0]}")
 
     def _checked_divisors(self, given: Sequence[Sequence[float]]) -> tuple[np.ndarray, ...]:
         if self.indices is None or len(given) != len(self.indices) or len(self.indices) != self.p:
@@ -148,8 +159,8 @@ class StateSpaceModel:
         """The same channels, structure and operating point with new matrices and filters.
 
         ``divisors`` given: per-output filters (``alpha`` dropped); None keeps ``alpha``.
-        The copy has no noise model: a Kalman gain belongs to the matrices it was
-        estimated with.
+        The copy has no noise model and no covariance: both belong to the matrices
+        they were estimated with.
         """
         return StateSpaceModel(
             A, B, C, D, Ts=self.Ts, output_names=self.output_names, input_names=self.input_names,
@@ -218,6 +229,44 @@ class StateSpaceModel:
             row = row @ self.A
         return out
 
+    def magnitude_bands(
+        self, omega: object, confidence: float = 0.95, *, method: str = "gauss", samples: int = 1000,
+        seed: int = 0,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Pointwise confidence bands of the gain ``|H(exp(1j omega Ts))|``, shape (len(omega), p, m) each.
+
+        Needs the covariance of the matrices (``cov_factor``, attached by
+        :func:`moli.identify` and :func:`moli.estimate`). See
+        :func:`moli.models.bands.magnitude_bands` for the parameters.
+
+        Examples
+        --------
+        >>> m = StateSpaceModel([[0.5]], [[1.0]], [[1.0]], cov_factor=[[0.0], [0.1], [0.0], [0.0]])
+        >>> lower, upper = m.magnitude_bands([0.0])     # gain 1 / (1 - 0.5), sd 0.1 / 0.5
+        >>> np.round([lower[0, 0, 0], upper[0, 0, 0]], 3)
+        array([1.608, 2.392])
+        """
+        return magnitude_bands(self, omega, confidence, method=method, samples=samples, seed=seed)
+
+    def step_bands(
+        self, n_steps: int, confidence: float = 0.95, *, method: str = "gauss", samples: int = 1000,
+        seed: int = 0,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Pointwise confidence bands of the unit-step responses, shape (n_steps, p, m) each.
+
+        Entry ``[k, i, j]`` bounds output ``i`` at sample ``k`` after a unit step on
+        input ``j`` at sample 0 (zero initial state, deviations). Needs ``cov_factor``;
+        see :func:`moli.models.bands.step_bands` for the parameters.
+
+        Examples
+        --------
+        >>> m = StateSpaceModel([[0.5]], [[1.0]], [[1.0]], cov_factor=[[0.0], [0.1], [0.0], [0.0]])
+        >>> lower, upper = m.step_bands(3)              # responses 0, b, 1.5 b with b = 1 +- 0.1
+        >>> np.round(upper[:, 0, 0] - lower[:, 0, 0], 3)
+        array([0.   , 0.392, 0.588])
+        """
+        return step_bands(self, n_steps, confidence, method=method, samples=samples, seed=seed)
+
     def warn_if_unstable(self, stacklevel: int = 2) -> None:
         """Issue an :class:`UnstableModelWarning` if the model is unstable."""
         if not self.is_stable():
@@ -274,6 +323,7 @@ class StateSpaceModel:
             "y_offset": self.y_offset.tolist(), "u_offset": self.u_offset.tolist(),
             "K": None if self.K is None else self.K.tolist(),
             "noise_cov": None if self.noise_cov is None else self.noise_cov.tolist(),
+            "cov_factor": None if self.cov_factor is None else self.cov_factor.tolist(),
             "info": self.info,
         }
 
@@ -299,6 +349,7 @@ def model_from_dict(content: dict[str, Any]) -> StateSpaceModel:
             content.get("alpha"), content.get("y_offset"), content.get("u_offset"),
             content.get("info"), divisors=content.get("divisors"),
             K=content.get("K"), noise_cov=content.get("noise_cov"),  # absent in older files
+            cov_factor=content.get("cov_factor"),
         )
     except KeyError as exc:
         raise ModelFileError(f"model file lacks the field {exc}") from None
