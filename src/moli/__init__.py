@@ -33,10 +33,11 @@ _HOMES = {
     "nrmse_fit": "validation", "vaf": "validation", "predict": "validation",
     "residual_analysis": "validation", "ResidualAnalysis": "validation",
     "EmpiricalResponse": "validation", "empirical_frequency_response": "validation",
-    "estimate_delays": "validation", "FeedbackCheck": "validation", "feedback_check": "validation",
+    "estimate_delays": "validation", "FeedbackCheck": "validation", "feedback_check": "validation", "simulation_bands": "validation",
     "estimate": "method", "divisor": "method", "divisors": "method",
     "filter_polynomial": "method", "IdentificationResult": "method", "identify": "method",
     "IdentifyOptions": "method", "PathStep": "method", "estimate_noise_model": "method",
+    "estimate_covariance": "method",
     "RecursiveMoli": "streaming", "ChunkedEstimator": "streaming", "FilterBank": "streaming",
     "example_data": "systems", "example_plant": "systems", "experiment": "systems",
 }
@@ -57,7 +58,7 @@ if TYPE_CHECKING:  # what the lazy names are, for type checkers and IDEs
     )
     from .method import (
         IdentificationResult, IdentifyOptions, PathStep, divisor, divisors, estimate,
-        estimate_noise_model, filter_polynomial, identify,
+        estimate_covariance, estimate_noise_model, filter_polynomial, identify,
     )
     from .models import ContinuousModel, StateSpaceModel, load_model
     from .streaming import ChunkedEstimator, FilterBank, RecursiveMoli
@@ -65,7 +66,7 @@ if TYPE_CHECKING:  # what the lazy names are, for type checkers and IDEs
     from .validation import (
         Comparison, EmpiricalResponse, FeedbackCheck, ResidualAnalysis, compare, cost_j,
         empirical_frequency_response, estimate_delays, feedback_check, nrmse_fit, predict,
-        residual_analysis, vaf,
+        residual_analysis, simulation_bands, vaf,
     )
 
 

@@ -38,7 +38,7 @@ def written(result, tmp_path_factory) -> tuple[str, object, object]:
 def test_report_files_exist_and_html_embeds_every_png(written, result):
     page, folder, data_file = written
     embedded = re.findall(r'src="data:image/png;base64,([^"]+)"', page)
-    names = ["vaf_by_order", "validation", "poles", "step_responses", "residuals"]
+    names = ["vaf_by_order", "validation", "poles", "step_responses", "magnitude", "residuals"]
     assert len(embedded) == len(names)
     for name, data in zip(names, embedded):
         png = (folder / f"{name}.png").read_bytes()
@@ -127,6 +127,21 @@ def test_step_response_grid_matches_the_markov_sums(result):
     expected = np.cumsum(model.markov(samples), axis=0)
     last = axes[model.m * (model.p - 1) + 1].lines[0].get_ydata()  # to the last output from u2
     np.testing.assert_allclose(last, expected[:, -1, 1], rtol=1e-10, atol=1e-12)
+
+
+def test_magnitude_and_step_figures_shade_the_bands_of_models_with_a_covariance(result):
+    model = result.model
+    ax = figures.magnitude_responses(model, points=50).axes[0]
+    omega, gain = ax.lines[0].get_data()
+    z = np.exp(1j * omega * model.Ts)
+    expected = np.abs(model.C @ np.linalg.solve(z[:, None, None] * np.eye(model.n) - model.A, model.B) + model.D)
+    # the plotted line is |H| itself: round-off only
+    np.testing.assert_allclose(gain, expected[:, 0, 0], rtol=1e-10)
+    assert omega[-1] == pytest.approx(np.pi / model.Ts) and len(ax.collections) == 1
+    assert len(figures.step_responses(model, 20).axes[0].collections) == 1
+    bare = moli.StateSpaceModel(model.A, model.B, model.C, model.D)
+    assert len(figures.magnitude_responses(bare, points=50).axes[0].collections) == 0
+    assert len(figures.step_responses(bare, 20).axes[0].collections) == 0
 
 
 def test_settling_samples_grows_with_the_slowest_pole():

@@ -18,15 +18,34 @@ from ..method.search import PathStep
 from ..validation.comparison import Comparison
 from ..validation.frequency import empirical_frequency_response
 
-__all__ = ["vaf_by_order", "measured_vs_simulated", "poles", "step_responses", "settling_samples"]
+__all__ = [
+    "vaf_by_order", "measured_vs_simulated", "poles", "step_responses", "settling_samples",
+    "magnitude_responses",
+]
 
 PANEL_HEIGHT = 1.9  # inches per row of axes
+# Confidence of the bands drawn around responses of models that carry a covariance.
+BAND_CONFIDENCE = 0.95
+# The Bode plots span three decades below the Nyquist frequency.
+DECADES = 3
 
 
 def _figure(width: float, height: float) -> Figure:
     fig = Figure(figsize=(width, height), layout="constrained")
     FigureCanvasAgg(fig)
     return fig
+
+
+def _channel_grid(model: StateSpaceModel, ylabel: str, xlabel: str) -> tuple[Figure, np.ndarray]:
+    """A p-by-m grid of axes, one per channel: inputs in the column titles, outputs on the rows."""
+    fig = _figure(2.4 * model.m + 0.6, PANEL_HEIGHT * model.p + 0.4)
+    axes = fig.subplots(model.p, model.m, sharex=True, squeeze=False)
+    for j, name in enumerate(model.input_names):
+        axes[0, j].set_title(f"from {name}", fontsize=9)
+        axes[-1, j].set_xlabel(xlabel)
+    for i, name in enumerate(model.output_names):
+        axes[i, 0].set_ylabel(f"{ylabel} {name}")
+    return fig, axes
 
 
 def vaf_by_order(path: Sequence[PathStep], tried: Sequence[PathStep] = (), selected: int | None = None) -> Figure:
@@ -137,6 +156,9 @@ def poles(model: StateSpaceModel) -> Figure:
 def step_responses(model: StateSpaceModel, samples: int) -> Figure:
     """Unit-step responses from every input to every output (a p-by-m grid).
 
+    A model with a covariance (``model.cov_factor``) gets its pointwise 95 % bands
+    (:meth:`StateSpaceModel.step_bands`, Gauss approximation) shaded.
+
     Parameters
     ----------
     model : StateSpaceModel
@@ -147,24 +169,57 @@ def step_responses(model: StateSpaceModel, samples: int) -> Figure:
     -------
     matplotlib.figure.Figure
     """
-    fig = _figure(2.4 * model.m + 0.6, PANEL_HEIGHT * model.p + 0.4)
-    axes = fig.subplots(model.p, model.m, sharex=True, squeeze=False)
+    fig, axes = _channel_grid(model, "to", "time")
     t = np.arange(samples) * model.Ts
+    bands = None if model.cov_factor is None else model.step_bands(samples, BAND_CONFIDENCE)
     for j in range(model.m):
         u = np.zeros((samples, model.m))
         u[:, j] = 1.0
         y = model.simulate(u)
         for i in range(model.p):
             ax = axes[i, j]
+            if bands is not None:
+                ax.fill_between(t, bands[0][:, i, j], bands[1][:, i, j], step="post", color="C0",
+                                alpha=0.2, linewidth=0)
             ax.plot(t, y[:, i], color="C0", linewidth=1.2, drawstyle="steps-post")
             ax.axhline(0.0, color="0.8", linewidth=0.8)
             ax.grid(alpha=0.3)
-            if i == 0:
-                ax.set_title(f"from {model.input_names[j]}", fontsize=9)
-            if j == 0:
-                ax.set_ylabel(f"to {model.output_names[i]}")
-            if i == model.p - 1:
-                ax.set_xlabel("time")
+    return fig
+
+
+def magnitude_responses(model: StateSpaceModel, points: int = 200) -> Figure:
+    """Bode magnitude of every channel (a p-by-m grid), with its bands when the model has a covariance.
+
+    The gain ``|H(exp(1j omega Ts))|`` on log axes, from three decades below the
+    Nyquist frequency ``pi / Ts`` up to it; a model with ``cov_factor`` gets its
+    pointwise 95 % bands (:meth:`StateSpaceModel.magnitude_bands`, Gauss) shaded.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    points : int, default 200
+        Log-spaced frequencies.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    nyquist = np.pi / model.Ts
+    omega = np.logspace(np.log10(nyquist) - DECADES, np.log10(nyquist), points)
+    z = np.exp(1j * omega * model.Ts)
+    gain = np.abs(model.C @ np.linalg.solve(z[:, None, None] * np.eye(model.n) - model.A, model.B.astype(complex))
+                  + model.D)
+    bands = None if model.cov_factor is None else model.magnitude_bands(omega, BAND_CONFIDENCE)
+    fig, axes = _channel_grid(model, "|H| to", "frequency (rad per time unit)")
+    for i in range(model.p):
+        for j in range(model.m):
+            ax = axes[i, j]
+            if bands is not None:
+                # a Gauss band's lower edge clipped at zero has no place on a log axis
+                lower = np.where(bands[0][:, i, j] > 0, bands[0][:, i, j], np.nan)
+                ax.fill_between(omega, lower, bands[1][:, i, j], color="C0", alpha=0.2, linewidth=0)
+            ax.loglog(omega, gain[:, i, j], color="C0", linewidth=1.2)
+            ax.grid(alpha=0.3, which="both")
     return fig
 
 

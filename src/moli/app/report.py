@@ -220,6 +220,8 @@ def write_report(
     out.mkdir(parents=True, exist_ok=True)
     model, validation = result.model, result.validation
     comparison = compare(model, validation, result.options.x0)
+    bands = (f", shaded: pointwise {figures.BAND_CONFIDENCE:.0%} confidence band of the estimate "
+             "(docs/uncertainty.md)." if model.cov_factor is not None else ".")
     drawn = {
         "vaf_by_order": (figures.vaf_by_order(result.path, tried, result.selected_index),
                          "Mean validation VAF against the order: the greedy path"
@@ -228,8 +230,9 @@ def write_report(
                        validation_caption(result)),
         "poles": (figures.poles(model), "Poles of the selected model and the unit circle."),
         "step_responses": (figures.step_responses(model, figures.settling_samples(model)),
-                           "Unit-step responses from each input to each output, from rest "
-                           "(deviations from the operating point)."),
+                           "Unit-step responses from each input to each output (deviations)" + bands),
+        "magnitude": (figures.magnitude_responses(model),
+                      "Gain of each channel against frequency, up to the Nyquist frequency" + bands),
     }
     # at most the default 25 lags, fewer on a short validation record
     lags = min(25, validation.N // SAMPLES_PER_LAG - 1)

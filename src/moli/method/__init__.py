@@ -6,7 +6,8 @@ of observability indices), :mod:`.filters` (the filter α and its divisors),
 :mod:`.regression` and :mod:`.scoring` (the shared factors and the criterion J),
 :mod:`.tuning` (the barycenter filter search), :mod:`.output_filters`,
 :mod:`.search` (greedy path, order rule), :mod:`.refinement`, :mod:`.noise_model`
-(Kalman gain from the residuals), :mod:`.options` and :mod:`.identification` (the
+(Kalman gain from the residuals), :mod:`.covariance` and :mod:`.uncertainty` (the
+covariance of the parameters and of the matrices), :mod:`.options` and :mod:`.identification` (the
 one-call entry point).
 """
 
@@ -18,9 +19,10 @@ from .options import IdentifyOptions
 from .refinement import RefineResult, refine
 from .search import PathStep, exhaustive
 from .tuning import TuningResult, default_omega, tune_filter
+from .uncertainty import estimate_covariance
 
 __all__ = [
     "estimate", "realize", "divisor", "divisors", "filter_polynomial", "IdentificationResult",
     "identify", "IdentifyOptions", "estimate_noise_model", "RefineResult", "refine", "PathStep", "exhaustive",
-    "TuningResult", "default_omega", "tune_filter",
+    "TuningResult", "default_omega", "tune_filter", "estimate_covariance",
 ]

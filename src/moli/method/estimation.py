@@ -17,14 +17,15 @@ import numpy as np
 import scipy.linalg
 
 from ..data.iodata import IOData
-from ..errors import DataError, IllConditionedWarning
+from ..errors import DataError, IllConditionedWarning, OptionError
+from .covariance import matrix_covariance
 from .filters import check_alpha, divisors
 from ..models.statespace import StateSpaceModel
 from .structure import Indices, check_indices, parameter_counts
 
 __all__ = [
-    "filtered_regressors", "solve_batch", "realize", "fit_batch", "check_sample_count",
-    "estimate",
+    "filtered_regressors", "output_regressors", "solve_batch", "realize", "fit_batch",
+    "check_sample_count", "estimate",
 ]
 
 # Condition numbers (of the column-scaled regressor) above this are reported:
@@ -57,6 +58,25 @@ def filtered_regressors(z: np.ndarray, alpha_j: np.ndarray) -> np.ndarray:
         delay = l - i
         phi[delay:, :, i] = base[: N - delay]
     return phi.reshape(N, c * l)
+
+
+def output_regressors(
+    z: np.ndarray, indices: Indices, alphas: Sequence[np.ndarray], through: np.ndarray | None = None
+) -> list[np.ndarray]:
+    """Each output's least-squares regressors, rows ``max(indices)..N-1`` (docs/method.md §3, §8).
+
+    Output ``j``'s columns: :func:`filtered_regressors` with ``alphas[j]``, the earlier
+    outputs ``y_i``, ``i < j``, and the current inputs when ``through[j]`` (feedthrough).
+    """
+    p = len(indices)
+    skip = max(indices)
+    phis = []
+    for j, alpha_j in enumerate(alphas):
+        parts = [filtered_regressors(z, alpha_j)[skip:], z[skip:, :j]]
+        if through is not None and through[j]:
+            parts.append(z[skip:, p:])
+        phis.append(np.concatenate(parts, axis=1))
+    return phis
 
 
 # Rows per block of the tall-skinny QR: blocks stay in cache, so the cost per
@@ -245,7 +265,9 @@ def check_sample_count(N: int, indices: Indices, m: int, feedthrough: bool = Fal
         )
 
 
-def estimate(data: IOData, indices: Sequence[int], alpha: Sequence[float]) -> StateSpaceModel:
+def estimate(
+    data: IOData, indices: Sequence[int], alpha: Sequence[float], *, covariance: bool = True
+) -> StateSpaceModel:
     """Estimate a model for a fixed list of indices and filter polynomial.
 
     Parameters
@@ -257,11 +279,17 @@ def estimate(data: IOData, indices: Sequence[int], alpha: Sequence[float]) -> St
     alpha : array_like
         Monic, stable filter polynomial of degree ``max(indices)``, e.g. from
         :func:`moli.filter_polynomial`.
+    covariance : bool, default True
+        Attach the covariance of the model's matrices (``cov_factor``,
+        docs/uncertainty.md), which the confidence bands need; False skips it (it
+        adds up to twice the estimate's time, and holds the regressors twice).
 
     Returns
     -------
     StateSpaceModel
-        Discrete-time model, no feedthrough, in the observer form's coordinates.
+        Discrete-time model, no feedthrough, in the observer form's coordinates, with
+        the covariance of its matrices (``cov_factor``, docs/uncertainty.md) unless a
+        problem is rank deficient (``info["covariance"]`` then says so).
 
     Warns
     -----
@@ -284,6 +312,8 @@ def estimate(data: IOData, indices: Sequence[int], alpha: Sequence[float]) -> St
     """
     if not isinstance(data, IOData):
         raise DataError(f"data must be an IOData, got {type(data).__name__}")
+    if not isinstance(covariance, bool):
+        raise OptionError(f"covariance must be True or False, got {covariance!r}")
     idx = check_indices(indices, data.p)
     coeffs = check_alpha(alpha)
     alphas = divisors(coeffs, idx)
@@ -303,5 +333,18 @@ def estimate(data: IOData, indices: Sequence[int], alpha: Sequence[float]) -> St
         input_names=data.input_names, indices=idx, alpha=coeffs,
         y_offset=data.y_offset, u_offset=data.u_offset,
     )
+    if covariance:
+        _attach_covariance(model, z, idx, alphas)
     model.warn_if_unstable(stacklevel=2)
     return model
+
+
+def _attach_covariance(model: StateSpaceModel, z: np.ndarray, indices: Indices, alphas: Sequence[np.ndarray]) -> None:
+    """Give ``model`` the covariance of its matrices, or record in its ``info`` why it has none."""
+    p = len(indices)
+    try:
+        model.cov_factor, model.info["covariance"] = matrix_covariance(
+            output_regressors(z, indices, alphas), z[max(indices) :, :p], indices, model.C, model.D,
+            np.zeros(p, bool))
+    except DataError as exc:
+        model.info["covariance"] = {"method": "none", "reason": str(exc)}

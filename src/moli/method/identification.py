@@ -24,6 +24,7 @@ from .refinement import MAX_RADIUS
 from .refinement import refine as refine_model
 from .search import PathStep, StructureSearch, greedy_path, select_order, select_order_paired
 from .tuning import default_omega
+from .uncertainty import estimate_covariance
 
 __all__ = ["IdentificationResult", "identify"]
 
@@ -277,7 +278,9 @@ def identify(
         candidate = refined(path[selected])
         if candidate.mean_vaf > path[selected].mean_vaf:
             path[selected] = candidate
-    if opts.noise_model:  # on the delay-free model and the shifted record it was fitted on
+    # covariance and noise model of the delay-free model, on the shifted record it was fitted on
+    path[selected] = replace(path[selected], model=_with_covariance(path[selected].model, fitted))
+    if opts.noise_model:
         path[selected] = replace(path[selected], model=_with_noise_model(path[selected].model, fitted))
     if any(delays):
         for step in path:
@@ -326,6 +329,15 @@ def _fixed_order(path: list[PathStep], order: int | None, interrupted: bool) -> 
         return None
     raise DataError(f"IdentifyOptions.order = {order} is not on the greedy path: the record has "
                     f"too few samples for lists beyond n = {path[-1].order}")
+
+
+def _with_covariance(model: StateSpaceModel, estimation: IOData) -> StateSpaceModel:
+    """``model`` with the covariance of its matrices, or unchanged with the reason in ``info``."""
+    try:
+        return estimate_covariance(model, estimation)
+    except DataError as exc:
+        model.info["covariance"] = {"method": "none", "reason": str(exc)}
+        return model
 
 
 def _options(options: IdentifyOptions | None, overrides: dict[str, Any]) -> IdentifyOptions:

@@ -11,34 +11,17 @@ import numpy as np
 
 from .._version import __version__
 from ..data.iodata import as_signal
-from ..errors import DataError, OptionError, UnstableModelWarning
+from ..errors import DataError, UnstableModelWarning
+from .bands import magnitude_bands, step_bands
+from .checks import checked_divisors, covariance, matrix
 from .delays import check_delays, delay_states, shift_inputs
 from .frequency import check_omega, frequency_response
+from .interop import to_control
 from .simulation import simulate_batch
 
 __all__ = ["StateSpaceModel"]
 
 FILE_FORMAT = "moli-model"
-
-
-def _matrix(name: str, value: object, shape: tuple[int, int] | None = None) -> np.ndarray:
-    array = np.array(value, dtype=float, ndmin=2)
-    if array.ndim != 2 or not np.all(np.isfinite(array)):
-        raise DataError(f"{name} must be a finite 2-D matrix, got shape {array.shape}")
-    if shape is not None and array.shape != shape:
-        raise DataError(f"{name} must have shape {shape}, got {array.shape}")
-    return array
-
-
-def _covariance(value: object, p: int) -> np.ndarray:
-    array = _matrix("noise_cov", value, (p, p))
-    scale = float(np.max(np.abs(array), initial=0.0))
-    # round-off tolerances: a covariance computed as E^T E / N is symmetric and PSD to
-    # a few ulps of its largest entry
-    if not np.allclose(array, array.T, rtol=0.0, atol=1e-12 * scale) or \
-            np.min(np.linalg.eigvalsh(array), initial=0.0) < -1e-10 * scale:
-        raise DataError("noise_cov must be symmetric positive semidefinite")
-    return array
 
 
 class StateSpaceModel:
@@ -75,6 +58,11 @@ class StateSpaceModel:
     noise_cov : array_like, optional
         Covariance of the innovations ``e``, shape (p, p), symmetric positive
         semidefinite; given together with ``K``.
+    cov_factor : array_like, optional
+        Uncertainty of the matrices: ``Cov(vec) = cov_factor @ cov_factor.T`` for
+        ``vec = [A.ravel(), B.ravel(), C.ravel(), D.ravel()]``, shape
+        (n n + n m + p n + p m, r) (docs/uncertainty.md). :func:`moli.identify` and
+        :func:`moli.estimate` attach it; None (the default): no covariance, no bands.
 
     Examples
     --------
@@ -101,17 +89,18 @@ class StateSpaceModel:
         divisors: Sequence[Sequence[float]] | None = None,
         K: object | None = None,
         noise_cov: object | None = None,
+        cov_factor: object | None = None,
     ) -> None:
-        self.A = _matrix("A", A)
+        self.A = matrix("A", A)
         n = self.A.shape[0]
         if self.A.shape != (n, n):
             raise DataError(f"A must be square, got shape {self.A.shape}")
-        self.B = _matrix("B", B)
-        self.C = _matrix("C", C)
+        self.B = matrix("B", B)
+        self.C = matrix("C", C)
         if self.B.shape[0] != n or self.C.shape[1] != n:
             raise DataError(f"B needs {n} rows and C {n} columns, got {self.B.shape} and {self.C.shape}")
         p, m = self.C.shape[0], self.B.shape[1]
-        self.D = np.zeros((p, m)) if D is None else _matrix("D", D, (p, m))
+        self.D = np.zeros((p, m)) if D is None else matrix("D", D, (p, m))
         if not (np.isfinite(Ts) and Ts > 0):
             raise DataError(f"Ts must be positive, got {Ts!r}")
         self.Ts = float(Ts)
@@ -124,24 +113,15 @@ class StateSpaceModel:
         self.y_offset = np.zeros(p) if y_offset is None else np.array(y_offset, dtype=float).reshape(p)
         self.u_offset = np.zeros(m) if u_offset is None else np.array(u_offset, dtype=float).reshape(m)
         self.info = dict(info or {})
-        self.divisors = None if divisors is None else self._checked_divisors(divisors)
+        self.divisors = None if divisors is None else checked_divisors(divisors, self.indices, self.p)
         if (K is None) != (noise_cov is None):
             raise DataError("K and noise_cov make the noise model together: give both or neither")
-        self.K = None if K is None else _matrix("K", K, (n, p))
-        self.noise_cov = None if noise_cov is None else _covariance(noise_cov, p)
-
-    def _checked_divisors(self, given: Sequence[Sequence[float]]) -> tuple[np.ndarray, ...]:
-        if self.indices is None or len(given) != len(self.indices) or len(self.indices) != self.p:
-            raise DataError(f"divisors need the model's indices, one divisor per output ({self.p})")
-        checked = []
-        for j, (coeffs, l) in enumerate(zip(given, self.indices)):
-            alpha_j = _matrix(f"divisor of output {j + 1}", coeffs).ravel()
-            if alpha_j.size - 1 != l or alpha_j[0] != 1.0:
-                raise DataError(f"divisor of output {j + 1} must be monic of degree {l}, got {alpha_j.tolist()}")
-            if np.max(np.abs(np.roots(alpha_j))) >= 1.0:
-                raise DataError(f"divisor of output {j + 1} must be stable (roots strictly inside the unit circle)")
-            checked.append(alpha_j)
-        return tuple(checked)
+        self.K = None if K is None else matrix("K", K, (n, p))
+        self.noise_cov = None if noise_cov is None else covariance(noise_cov, p)
+        self.cov_factor = None if cov_factor is None else matrix("cov_factor", cov_factor)
+        if self.cov_factor is not None and self.cov_factor.shape[0] != n * n + n * m + p * n + p * m:
+            raise DataError(f"cov_factor needs one row per entry of A, B, C and D "
+                            f"({n * n + n * m + p * n + p * m}), got {self.cov_factor.shape[0]}")
 
     def with_matrices(
         self, A: object, B: object, C: object, D: object | None, info: dict[str, Any],
@@ -150,8 +130,8 @@ class StateSpaceModel:
         """The same channels, structure and operating point with new matrices and filters.
 
         ``divisors`` given: per-output filters (``alpha`` dropped); None keeps ``alpha``.
-        The copy has no noise model: a Kalman gain belongs to the matrices it was
-        estimated with.
+        The copy has no noise model and no covariance: both belong to the matrices
+        they were estimated with.
         """
         return StateSpaceModel(
             A, B, C, D, Ts=self.Ts, output_names=self.output_names, input_names=self.input_names,
@@ -222,6 +202,44 @@ class StateSpaceModel:
             row = row @ self.A
         return out
 
+    def magnitude_bands(
+        self, omega: object, confidence: float = 0.95, *, method: str = "gauss", samples: int = 1000,
+        seed: int = 0,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Pointwise confidence bands of the gain ``|H(exp(1j omega Ts))|``, shape (len(omega), p, m) each.
+
+        Needs the covariance of the matrices (``cov_factor``, attached by
+        :func:`moli.identify` and :func:`moli.estimate`). See
+        :func:`moli.models.bands.magnitude_bands` for the parameters.
+
+        Examples
+        --------
+        >>> m = StateSpaceModel([[0.5]], [[1.0]], [[1.0]], cov_factor=[[0.0], [0.1], [0.0], [0.0]])
+        >>> lower, upper = m.magnitude_bands([0.0])     # gain 1 / (1 - 0.5), sd 0.1 / 0.5
+        >>> np.round([lower[0, 0, 0], upper[0, 0, 0]], 3)
+        array([1.608, 2.392])
+        """
+        return magnitude_bands(self, omega, confidence, method=method, samples=samples, seed=seed)
+
+    def step_bands(
+        self, n_steps: int, confidence: float = 0.95, *, method: str = "gauss", samples: int = 1000,
+        seed: int = 0,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Pointwise confidence bands of the unit-step responses, shape (n_steps, p, m) each.
+
+        Entry ``[k, i, j]`` bounds output ``i`` at sample ``k`` after a unit step on
+        input ``j`` at sample 0 (zero initial state, deviations). Needs ``cov_factor``;
+        see :func:`moli.models.bands.step_bands` for the parameters.
+
+        Examples
+        --------
+        >>> m = StateSpaceModel([[0.5]], [[1.0]], [[1.0]], cov_factor=[[0.0], [0.1], [0.0], [0.0]])
+        >>> lower, upper = m.step_bands(3)              # responses 0, b, 1.5 b with b = 1 +- 0.1
+        >>> np.round(upper[:, 0, 0] - lower[:, 0, 0], 3)
+        array([0.   , 0.392, 0.588])
+        """
+        return step_bands(self, n_steps, confidence, method=method, samples=samples, seed=seed)
+
     def warn_if_unstable(self, stacklevel: int = 2) -> None:
         """Issue an :class:`UnstableModelWarning` if the model is unstable."""
         if not self.is_stable():
@@ -248,33 +266,7 @@ class StateSpaceModel:
         continuous : bool, default False
             Convert :meth:`to_continuous` (zero-order hold) instead; deterministic part only.
         """
-        if not isinstance(noise, bool) or not isinstance(continuous, bool):
-            raise OptionError(f"noise and continuous must be True or False, got {noise!r} and {continuous!r}")
-        if noise and self.K is None:
-            raise OptionError("to_control(noise=True) needs a noise model, and model.K is None")
-        if noise and continuous:
-            raise OptionError("to_control gives the noise channels in discrete time only: "
-                              "pass noise=True or continuous=True, not both")
-        if continuous:
-            return self.to_continuous().to_control()
-        try:
-            import control
-        except ImportError as exc:  # pragma: no cover - depends on the environment
-            raise ImportError("to_control() needs python-control: pip install control") from exc
-        model = self.delays_as_states()
-        if noise:
-            # innovations do not enter the delay lines: K's rows for those states are zero
-            K = np.zeros((model.n, self.p))
-            K[: self.n] = self.K
-            return control.ss(
-                model.A, np.hstack([model.B, K]), model.C, np.hstack([model.D, np.eye(self.p)]), self.Ts,
-                inputs=[*self.input_names, *(f"e@{name}" for name in self.output_names)],
-                outputs=list(self.output_names),
-            )
-        return control.ss(
-            model.A, model.B, model.C, model.D, model.Ts,
-            inputs=list(model.input_names), outputs=list(model.output_names),
-        )
+        return to_control(self, noise, continuous)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-serialisable description of the model."""
@@ -290,6 +282,7 @@ class StateSpaceModel:
             "y_offset": self.y_offset.tolist(), "u_offset": self.u_offset.tolist(),
             "K": None if self.K is None else self.K.tolist(),
             "noise_cov": None if self.noise_cov is None else self.noise_cov.tolist(),
+            "cov_factor": None if self.cov_factor is None else self.cov_factor.tolist(),
             "info": self.info, "input_delays": list(self.input_delays),
         }
 

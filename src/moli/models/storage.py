@@ -30,6 +30,7 @@ def model_from_dict(content: dict[str, Any]) -> StateSpaceModel:
             content.get("alpha"), content.get("y_offset"), content.get("u_offset"),
             content.get("info"), divisors=content.get("divisors"),
             K=content.get("K"), noise_cov=content.get("noise_cov"),  # absent in older files
+            cov_factor=content.get("cov_factor"),
         ).with_input_delays(content.get("input_delays", 0))
     except KeyError as exc:
         raise ModelFileError(f"model file lacks the field {exc}") from None

@@ -1,0 +1,47 @@
+"""Checks of what a state-space model is built from: matrices, covariances, filters."""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import DataError
+
+__all__ = ["matrix", "covariance", "checked_divisors"]
+
+
+def matrix(name: str, value: object, shape: tuple[int, int] | None = None) -> np.ndarray:
+    array = np.array(value, dtype=float, ndmin=2)
+    if array.ndim != 2 or not np.all(np.isfinite(array)):
+        raise DataError(f"{name} must be a finite 2-D matrix, got shape {array.shape}")
+    if shape is not None and array.shape != shape:
+        raise DataError(f"{name} must have shape {shape}, got {array.shape}")
+    return array
+
+
+def covariance(value: object, p: int) -> np.ndarray:
+    array = matrix("noise_cov", value, (p, p))
+    scale = float(np.max(np.abs(array), initial=0.0))
+    # round-off tolerances: a covariance computed as E^T E / N is symmetric and PSD to
+    # a few ulps of its largest entry
+    if not np.allclose(array, array.T, rtol=0.0, atol=1e-12 * scale) or \
+            np.min(np.linalg.eigvalsh(array), initial=0.0) < -1e-10 * scale:
+        raise DataError("noise_cov must be symmetric positive semidefinite")
+    return array
+
+
+def checked_divisors(given: Sequence[Sequence[float]], indices: tuple[int, ...] | None,
+                     p: int) -> tuple[np.ndarray, ...]:
+    """Per-output filter polynomials: one per output, monic, stable, of degree ``indices[j]``."""
+    if indices is None or len(given) != len(indices) or len(indices) != p:
+        raise DataError(f"divisors need the model's indices, one divisor per output ({p})")
+    checked = []
+    for j, (coeffs, l) in enumerate(zip(given, indices)):
+        alpha_j = matrix(f"divisor of output {j + 1}", coeffs).ravel()
+        if alpha_j.size - 1 != l or alpha_j[0] != 1.0:
+            raise DataError(f"divisor of output {j + 1} must be monic of degree {l}, got {alpha_j.tolist()}")
+        if np.max(np.abs(np.roots(alpha_j))) >= 1.0:
+            raise DataError(f"divisor of output {j + 1} must be stable (roots strictly inside the unit circle)")
+        checked.append(alpha_j)
+    return tuple(checked)
