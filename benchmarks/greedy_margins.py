@@ -53,7 +53,7 @@ def main() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         for est, val in splits():
-            path = moli.identify(est, val, nmax=15).path
+            path = moli.identify(est, val, nmax=15, preset="improved").path
             cache = searches[-1]._cache
             for step in path[:-1]:
                 costs = sorted(cache[c].J for c in raised(step.indices) if c in cache)

@@ -39,8 +39,8 @@ def main() -> None:
         est, val = slice(0, half), slice(half, 2 * half if name == "evaporator" else data.N)
         ye, ue, _, _ = pl.centred_split(data.y, data.u, est, val)
         runs = {
-            "per-output": lambda: moli.identify(data[est], data[val], nmax=nmax),
-            "shared": lambda: moli.identify(data[est], data[val], nmax=nmax, output_filters=False),
+            "per-output": lambda: moli.identify(data[est], data[val], nmax=nmax, preset="improved"),
+            "shared": lambda: moli.identify(data[est], data[val], nmax=nmax, preset="improved", output_filters=False),
             **{peer: (lambda peer=peer: [fitters[peer](ye, ue, n) for n in range(data.p, nmax + 1)])
                for peer in PEERS},
         }
