@@ -8,7 +8,7 @@ import numpy as np
 
 from ..errors import DataError
 
-__all__ = ["matrix", "covariance", "checked_divisors"]
+__all__ = ["matrix", "covariance", "checked_divisors", "Dimensions"]
 
 
 def matrix(name: str, value: object, shape: tuple[int, int] | None = None) -> np.ndarray:
@@ -45,3 +45,26 @@ def checked_divisors(given: Sequence[Sequence[float]], indices: tuple[int, ...] 
             raise DataError(f"divisor of output {j + 1} must be stable (roots strictly inside the unit circle)")
         checked.append(alpha_j)
     return tuple(checked)
+
+
+class Dimensions:
+    """``n``, ``p`` and ``m`` of a model that holds ``A``, ``B`` and ``C``."""
+
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+
+    @property
+    def n(self) -> int:
+        """Order (number of states)."""
+        return self.A.shape[0]
+
+    @property
+    def p(self) -> int:
+        """Number of outputs."""
+        return self.C.shape[0]
+
+    @property
+    def m(self) -> int:
+        """Number of inputs."""
+        return self.B.shape[1]

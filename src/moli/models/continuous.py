@@ -15,6 +15,7 @@ import numpy as np
 import scipy.linalg
 
 from ..errors import DataError, OptionError
+from .checks import Dimensions
 from .frequency import check_omega, frequency_response
 from .statespace import StateSpaceModel
 
@@ -29,7 +30,7 @@ POLE_TOLERANCE = float(np.sqrt(np.finfo(float).eps))
 
 
 @dataclass(frozen=True, eq=False)
-class ContinuousModel:
+class ContinuousModel(Dimensions):
     """Continuous-time model ``x' = A x + B u(t - tau)``, ``y = C x + D u(t - tau)``.
 
     Built by :meth:`StateSpaceModel.to_continuous`; acts on deviations from the
@@ -74,21 +75,6 @@ class ContinuousModel:
                 raise DataError(f"{name} must have shape {shape}, got {getattr(self, name).shape}")
         if (len(self.output_names), len(self.input_names), len(self.input_delays)) != (p, m, m):
             raise DataError(f"need {p} output names, {m} input names and {m} input delays")
-
-    @property
-    def n(self) -> int:
-        """Order (number of states)."""
-        return self.A.shape[0]
-
-    @property
-    def p(self) -> int:
-        """Number of outputs."""
-        return self.C.shape[0]
-
-    @property
-    def m(self) -> int:
-        """Number of inputs."""
-        return self.B.shape[1]
 
     def __repr__(self) -> str:
         return f"ContinuousModel(n={self.n}, p={self.p}, m={self.m}, stable={self.is_stable()})"

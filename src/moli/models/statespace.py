@@ -13,7 +13,7 @@ from .._version import __version__
 from ..data.iodata import as_signal
 from ..errors import DataError, UnstableModelWarning
 from .bands import magnitude_bands, step_bands
-from .checks import checked_divisors, covariance, matrix
+from .checks import Dimensions, checked_divisors, covariance, matrix
 from .delays import check_delays, delay_states, shift_inputs
 from .frequency import check_omega, frequency_response
 from .interop import to_control
@@ -24,7 +24,7 @@ __all__ = ["StateSpaceModel"]
 FILE_FORMAT = "moli-model"
 
 
-class StateSpaceModel:
+class StateSpaceModel(Dimensions):
     """Discrete-time model ``x[k+1] = A x[k] + B u[k]``, ``y[k] = C x[k] + D u[k]``.
 
     The model acts on deviations from the operating point ``(u_offset, y_offset)``
@@ -138,21 +138,6 @@ class StateSpaceModel:
             indices=self.indices, alpha=self.alpha if divisors is None else None,
             y_offset=self.y_offset, u_offset=self.u_offset, info=info, divisors=divisors,
         ).with_input_delays(self.input_delays)
-
-    @property
-    def n(self) -> int:
-        """Order (number of states)."""
-        return self.A.shape[0]
-
-    @property
-    def p(self) -> int:
-        """Number of outputs."""
-        return self.C.shape[0]
-
-    @property
-    def m(self) -> int:
-        """Number of inputs."""
-        return self.B.shape[1]
 
     def __repr__(self) -> str:
         lists = f", indices={list(self.indices)}" if self.indices else ""
