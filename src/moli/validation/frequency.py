@@ -11,7 +11,6 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
-import scipy.signal
 
 from ..data.iodata import IOData
 from ..errors import DataError
@@ -106,6 +105,8 @@ def empirical_frequency_response(
             f"{count} segments of {length} samples cannot separate {m} inputs: "
             f"give a shorter nperseg (at most {2 * N // (m + 1)}) or a longer record"
         )
+    import scipy.signal  # slow to import: only when estimating from data
+
     window = scipy.signal.get_window("hann", length)
     z = np.concatenate([data.y, data.u], axis=1)
     segments = np.lib.stride_tricks.sliding_window_view(z, length, axis=0)[::step]  # (K, p+m, L)
