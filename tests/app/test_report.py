@@ -131,7 +131,7 @@ def test_step_response_grid_matches_the_markov_sums(result):
 
 def test_magnitude_and_step_figures_shade_the_bands_of_models_with_a_covariance(result):
     model = result.model
-    ax = figures.magnitude_responses(model, points=50).axes[0]
+    ax = figures.bode_magnitude(model, points=50).axes[0]
     omega, gain = ax.lines[0].get_data()
     z = np.exp(1j * omega * model.Ts)
     expected = np.abs(model.C @ np.linalg.solve(z[:, None, None] * np.eye(model.n) - model.A, model.B) + model.D)
@@ -140,7 +140,7 @@ def test_magnitude_and_step_figures_shade_the_bands_of_models_with_a_covariance(
     assert omega[-1] == pytest.approx(np.pi / model.Ts) and len(ax.collections) == 1
     assert len(figures.step_responses(model, 20).axes[0].collections) == 1
     bare = moli.StateSpaceModel(model.A, model.B, model.C, model.D)
-    assert len(figures.magnitude_responses(bare, points=50).axes[0].collections) == 0
+    assert len(figures.bode_magnitude(bare, points=50).axes[0].collections) == 0
     assert len(figures.step_responses(bare, 20).axes[0].collections) == 0
 
 

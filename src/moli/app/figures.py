@@ -187,49 +187,15 @@ def step_responses(model: StateSpaceModel, samples: int) -> Figure:
     return fig
 
 
-def magnitude_responses(model: StateSpaceModel, points: int = 200) -> Figure:
-    """Bode magnitude of every channel (a p-by-m grid), with its bands when the model has a covariance.
+def bode_magnitude(model: StateSpaceModel, data: IOData | None = None, nperseg: int | None = None,
+                   points: int = 200) -> Figure:
+    """Gain of every input-output pair against frequency (a p-by-m grid), on log axes.
 
-    The gain ``|H(exp(1j omega Ts))|`` on log axes, from three decades below the
-    Nyquist frequency ``pi / Ts`` up to it; a model with ``cov_factor`` gets its
-    pointwise 95 % bands (:meth:`StateSpaceModel.magnitude_bands`, Gauss) shaded.
-
-    Parameters
-    ----------
-    model : StateSpaceModel
-    points : int, default 200
-        Log-spaced frequencies.
-
-    Returns
-    -------
-    matplotlib.figure.Figure
-    """
-    nyquist = np.pi / model.Ts
-    omega = np.logspace(np.log10(nyquist) - DECADES, np.log10(nyquist), points)
-    z = np.exp(1j * omega * model.Ts)
-    gain = np.abs(model.C @ np.linalg.solve(z[:, None, None] * np.eye(model.n) - model.A, model.B.astype(complex))
-                  + model.D)
-    bands = None if model.cov_factor is None else model.magnitude_bands(omega, BAND_CONFIDENCE)
-    fig, axes = _channel_grid(model, "|H| to", "frequency (rad per time unit)")
-    for i in range(model.p):
-        for j in range(model.m):
-            ax = axes[i, j]
-            if bands is not None:
-                # a Gauss band's lower edge clipped at zero has no place on a log axis
-                lower = np.where(bands[0][:, i, j] > 0, bands[0][:, i, j], np.nan)
-                ax.fill_between(omega, lower, bands[1][:, i, j], color="C0", alpha=0.2, linewidth=0)
-            ax.loglog(omega, gain[:, i, j], color="C0", linewidth=1.2)
-            ax.grid(alpha=0.3, which="both")
-    return fig
-
-
-def bode_magnitude(model: StateSpaceModel, data: IOData | None = None, nperseg: int | None = None) -> Figure:
-    """Gain of every input-output pair against frequency (a p-by-m grid), in dB.
-
-    The model's :meth:`~moli.StateSpaceModel.frequency_response` as a line up to
-    the Nyquist frequency; with ``data``, the spectral estimate
-    :func:`moli.empirical_frequency_response` on the same axes as dots, at the
-    data's Welch frequencies.
+    The model's :meth:`~moli.StateSpaceModel.frequency_response` ``|H|`` as a line, from
+    three decades below the Nyquist frequency ``pi / Ts`` up to it; a model with a
+    covariance (``cov_factor``) gets its pointwise 95 % bands
+    (:meth:`~moli.StateSpaceModel.magnitude_bands`, Gauss) shaded; with ``data``, the
+    spectral estimate :func:`moli.empirical_frequency_response` as dots.
 
     Parameters
     ----------
@@ -238,33 +204,31 @@ def bode_magnitude(model: StateSpaceModel, data: IOData | None = None, nperseg: 
         A record of the same channels (raw or centred).
     nperseg : int, optional
         Welch segment length of the empirical estimate.
+    points : int, default 200
+        Log-spaced frequencies of the model's line.
 
     Returns
     -------
     matplotlib.figure.Figure
     """
     nyquist = np.pi / model.Ts
-    omega = np.logspace(np.log10(nyquist) - 3, np.log10(nyquist), 400)
-    gain = 20 * np.log10(np.maximum(np.abs(model.frequency_response(omega)), 1e-300))
+    omega = np.logspace(np.log10(nyquist) - DECADES, np.log10(nyquist), points)
+    gain = np.abs(model.frequency_response(omega))
+    bands = None if model.cov_factor is None else model.magnitude_bands(omega, BAND_CONFIDENCE)
     empirical = None if data is None else empirical_frequency_response(data, nperseg=nperseg)
-    fig = _figure(2.4 * model.m + 0.6, PANEL_HEIGHT * model.p + 0.4)
-    axes = fig.subplots(model.p, model.m, sharex=True, squeeze=False)
+    fig, axes = _channel_grid(model, "|H| to", "frequency (rad per time unit)")
     for i in range(model.p):
         for j in range(model.m):
             ax = axes[i, j]
-            ax.semilogx(omega, gain[:, i, j], color="C0", linewidth=1.2, label="model")
+            if bands is not None:
+                # a Gauss band's lower edge clipped at zero has no place on a log axis
+                lower = np.where(bands[0][:, i, j] > 0, bands[0][:, i, j], np.nan)
+                ax.fill_between(omega, lower, bands[1][:, i, j], color="C0", alpha=0.2, linewidth=0)
+            ax.loglog(omega, gain[:, i, j], color="C0", linewidth=1.2, label="model")
             if empirical is not None:
-                with np.errstate(divide="ignore"):
-                    points = 20 * np.log10(np.abs(empirical.response[:, i, j]))
-                ax.semilogx(empirical.omega, points, ".", color="0.4", markersize=3,
-                            label="spectral estimate")
+                ax.loglog(empirical.omega, np.abs(empirical.response[:, i, j]), ".", color="0.4",
+                          markersize=3, label="spectral estimate")
             ax.grid(alpha=0.3, which="both")
-            if i == 0:
-                ax.set_title(f"from {model.input_names[j]}", fontsize=9)
-            if j == 0:
-                ax.set_ylabel(f"to {model.output_names[i]} (dB)")
-            if i == model.p - 1:
-                ax.set_xlabel("rad per time unit")
     if empirical is not None:
         fig.legend(*axes[0, 0].get_legend_handles_labels(), loc="outside upper left", fontsize=8, ncols=2)
     return fig

@@ -231,7 +231,7 @@ def write_report(
         "poles": (figures.poles(model), "Poles of the selected model and the unit circle."),
         "step_responses": (figures.step_responses(model, figures.settling_samples(model)),
                            "Unit-step responses from each input to each output (deviations)" + bands),
-        "magnitude": (figures.magnitude_responses(model),
+        "magnitude": (figures.bode_magnitude(model, validation),
                       "Gain of each channel against frequency, up to the Nyquist frequency" + bands),
     }
     # at most the default 25 lags, fewer on a short validation record
