@@ -33,7 +33,9 @@ _HOMES = {
     "estimate": "method", "divisor": "method", "divisors": "method",
     "filter_polynomial": "method", "IdentificationResult": "method", "identify": "method",
     "IdentifyOptions": "method", "PathStep": "method",
+    "identify_many": "method", "FleetResult": "method",
     "RecursiveMoli": "streaming", "ChunkedEstimator": "streaming", "FilterBank": "streaming",
+    "estimate_chunks": "streaming",
     "example_data": "systems", "example_plant": "systems", "experiment": "systems",
 }
 _SUBPACKAGES = ("data", "models", "validation", "method", "streaming", "systems", "control", "app")
@@ -51,11 +53,11 @@ if TYPE_CHECKING:  # what the lazy names are, for type checkers and IDEs
         load_daisy, random_binary_signal, read_data, to_dataframe,
     )
     from .method import (
-        IdentificationResult, IdentifyOptions, PathStep, divisor, divisors, estimate,
-        filter_polynomial, identify,
+        FleetResult, IdentificationResult, IdentifyOptions, PathStep, divisor, divisors, estimate,
+        filter_polynomial, identify, identify_many,
     )
     from .models import StateSpaceModel, load_model
-    from .streaming import ChunkedEstimator, FilterBank, RecursiveMoli
+    from .streaming import ChunkedEstimator, FilterBank, RecursiveMoli, estimate_chunks
     from .systems import example_data, example_plant, experiment
     from .validation import Comparison, compare, cost_j, nrmse_fit, vaf
 

@@ -6,10 +6,12 @@ of observability indices), :mod:`.filters` (the filter α and its divisors),
 :mod:`.regression` and :mod:`.scoring` (the shared factors and the criterion J),
 :mod:`.tuning` (the barycenter filter search), :mod:`.output_filters`,
 :mod:`.search` (greedy path, order rule), :mod:`.refinement`, :mod:`.options` and
-:mod:`.identification` (the one-call entry point).
+:mod:`.identification` (the one-call entry point); :mod:`.fleet` identifies many records
+at once on the backends of :mod:`.backends`.
 """
 
 from .estimation import estimate, realize
+from .fleet import FleetEntry, FleetResult, identify_many
 from .filters import divisor, divisors, filter_polynomial
 from .identification import IdentificationResult, identify
 from .options import IdentifyOptions
@@ -21,4 +23,5 @@ __all__ = [
     "estimate", "realize", "divisor", "divisors", "filter_polynomial", "IdentificationResult",
     "identify", "IdentifyOptions", "RefineResult", "refine", "PathStep", "exhaustive",
     "TuningResult", "default_omega", "tune_filter",
+    "FleetEntry", "FleetResult", "identify_many",
 ]

@@ -45,6 +45,46 @@ class CausalRegressors:
         self._zi[r] = other._zi[s]
         self._tail[r] = other._tail[s]
 
+    def state(self) -> np.ndarray:
+        """The state carried to the next sample, shape (R, 2 l, c): the ``lfilter`` state
+        ``zi`` (rows ``0..l-1``), then the last ``l`` filtered samples (rows ``l..2l-1``)."""
+        return np.concatenate([self._zi, self._tail], axis=1)
+
+    def set_state(self, state: np.ndarray) -> None:
+        """Continue from ``state`` (the layout of :meth:`state`), e.g. mid-record."""
+        l = self.degree
+        self._zi, self._tail = state[:, :l].copy(), state[:, l:].copy()
+
+    def advance(self, z: np.ndarray) -> None:
+        """Carry the state over the samples ``z`` (N, c) without forming regressors."""
+        for r in range(self.filters.shape[0]):
+            self._filter(r, z)
+
+    def transition(self, N: int) -> np.ndarray:
+        """The free response of the state over ``N`` samples, shape (R, 2 l, 2 l).
+
+        The state is linear in its start and the samples, and each channel's is
+        separate: after ``N`` more samples ``state = T @ start + (state from zero)``
+        for every channel, with ``T`` this matrix. It is the one-sample map, read off
+        the filter itself, raised to the power ``N``.
+        """
+        size = 2 * self.degree
+        probe = CausalRegressors(self.filters, size)
+        # channel q starts in the unit state e_q, so column q of its state is T e_q
+        probe.set_state(np.broadcast_to(np.eye(size), (self.filters.shape[0], size, size)))
+        probe.advance(np.zeros((1, size)))
+        return np.linalg.matrix_power(probe.state(), N)
+
+    def _filter(self, r: int, z: np.ndarray) -> np.ndarray:
+        """Filter ``z`` by candidate ``r`` from its state; the last ``l`` filtered samples
+        before ``z`` then the filtered ``z``, shape (l + N, c). Updates the state."""
+        from scipy.signal import lfilter  # slow to import: only when filtering
+
+        base, self._zi[r] = lfilter([1.0], self.filters[r], z, axis=0, zi=self._zi[r])
+        extended = np.concatenate([self._tail[r], base])
+        self._tail[r] = extended[z.shape[0]:]
+        return extended
+
     def push(self, z: np.ndarray) -> np.ndarray:
         """Regressors of the next samples.
 
@@ -58,8 +98,6 @@ class CausalRegressors:
             Column ``r * l + i`` holds channel ``r`` filtered by ``q^i / alpha_j``,
             the layout of :func:`moli.method.estimation.filtered_regressors`.
         """
-        from scipy.signal import lfilter  # slow to import: only when filtering
-
         N, c = z.shape
         l = self.degree
         R = self.filters.shape[0]
@@ -67,10 +105,8 @@ class CausalRegressors:
         # One C-level lfilter call per candidate and chunk: its cost is amortised
         # over the chunk, while the estimation itself is batched across the bank.
         for r in range(R):
-            base, self._zi[r] = lfilter([1.0], self.filters[r], z, axis=0, zi=self._zi[r])
-            extended = np.concatenate([self._tail[r], base])
+            extended = self._filter(r, z)
             for i in range(l):
                 # phi[k, :, i] = base[k - (l - i)] = extended[k + i]
                 out[r, :, :, i] = extended[i : i + N]
-            self._tail[r] = extended[N:]
         return out.reshape(R, N, c * l)
