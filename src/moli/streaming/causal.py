@@ -10,9 +10,14 @@ filtering the whole record at once from the zero state.
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 __all__ = ["CausalRegressors"]
+
+# Zero samples per lfilter call of a free response: long chunks in bounded memory.
+FREE_RESPONSE_PIECE = 65536
 
 
 class CausalRegressors:
@@ -65,21 +70,20 @@ class CausalRegressors:
 
         The state is linear in its start and the samples, and each channel's is
         separate: after ``N`` more samples ``state = T @ start + (state from zero)``
-        for every channel, with ``T`` this matrix. It is the one-sample map, read off
-        the filter itself, raised to the power ``N``.
+        for every channel, with ``T`` this matrix. Column ``q`` is the state reached
+        from the unit state ``e_q`` through ``N`` zero samples, filtered like the data
+        (the power of the one-sample map by squaring is no substitute: on slow filters
+        its state map is far from normal, and squaring lost every digit in tests).
         """
-        size = 2 * self.degree
-        probe = CausalRegressors(self.filters, size)
-        # channel q starts in the unit state e_q, so column q of its state is T e_q
-        probe.set_state(np.broadcast_to(np.eye(size), (self.filters.shape[0], size, size)))
-        probe.advance(np.zeros((1, size)))
-        return np.linalg.matrix_power(probe.state(), N)
+        return np.stack([_free_response(f.tobytes(), N) for f in self.filters])
 
     def _filter(self, r: int, z: np.ndarray) -> np.ndarray:
         """Filter ``z`` by candidate ``r`` from its state; the last ``l`` filtered samples
         before ``z`` then the filtered ``z``, shape (l + N, c). Updates the state."""
         from scipy.signal import lfilter  # slow to import: only when filtering
 
+        if not z.shape[0]:  # lfilter returns an uninitialised state for no samples
+            return self._tail[r].copy()
         base, self._zi[r] = lfilter([1.0], self.filters[r], z, axis=0, zi=self._zi[r])
         extended = np.concatenate([self._tail[r], base])
         self._tail[r] = extended[z.shape[0]:]
@@ -110,3 +114,18 @@ class CausalRegressors:
                 # phi[k, :, i] = base[k - (l - i)] = extended[k + i]
                 out[r, :, :, i] = extended[i : i + N]
         return out.reshape(R, N, c * l)
+
+
+@functools.lru_cache(maxsize=64)
+def _free_response(filter_bytes: bytes, N: int) -> np.ndarray:
+    """:meth:`CausalRegressors.transition` of one filter; chunks of one length share it."""
+    alpha = np.frombuffer(filter_bytes)
+    size = 2 * (alpha.size - 1)
+    probe = CausalRegressors(alpha[None], size)
+    probe.set_state(np.eye(size)[None])
+    zeros = np.zeros((min(N, FREE_RESPONSE_PIECE), size))
+    for start in range(0, N, FREE_RESPONSE_PIECE):
+        probe.advance(zeros[: N - start])
+    response = probe.state()[0]
+    response.flags.writeable = False  # shared by every caller
+    return response

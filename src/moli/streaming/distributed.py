@@ -8,9 +8,10 @@ in turn, computed in three steps, none of which gathers the record in one place:
 
 1. **State maps.** The filters ``1/alpha_j`` are linear, so the filter state at the
    end of chunk ``k`` is ``T_k S_k + s_k`` of the state ``S_k`` at its start: ``s_k``
-   is the chunk filtered from the zero state and ``T_k`` the one-sample free response
-   raised to the chunk's length (:meth:`ChunkedEstimator.state_map`). Each worker
-   returns the ``(T_k, s_k)`` of its chunk: a few small matrices.
+   is the chunk filtered from the zero state and ``T_k`` the free response of the unit
+   states over the chunk's length, filtered the same way
+   (:meth:`ChunkedEstimator.state_map`). Each worker returns the ``(T_k, s_k)`` of its
+   chunk: a few small matrices.
 2. **Scan.** The client runs ``S_{k+1} = T_k S_k + s_k`` from the zero state: the exact
    state at every chunk boundary (no overlap, no approximation), in microseconds.
 3. **Factors and tree.** Each worker reads its chunk again, resumes the estimator

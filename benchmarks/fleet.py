@@ -1,0 +1,154 @@
+"""A fleet of loop records, and one very long record, on local processes and Dask.
+
+1. ``RECORDS`` records of a typical loop test (2x2, ``SAMPLES`` samples, a seeded random
+   4-state plant each) identified serially, on 2 local processes (loky) and on a
+   2-worker Dask LocalCluster; the models must be the same bit for bit.
+2. A ``LONG``-sample 2x2 record (order 4) reduced over chunks of ``CHUNK`` samples generated on
+   the Dask workers (moli.streaming.distributed.estimate_chunks), against one
+   ChunkedEstimator fed the same chunks in this process.
+
+Run: OPENBLAS_NUM_THREADS=1 python benchmarks/fleet.py [records] [samples] [long] [chunk]
+"""
+
+import single_thread  # noqa: F401  (before numpy: one BLAS thread)
+
+import sys
+import time
+from functools import partial
+from pathlib import Path
+
+import numpy as np
+
+import moli
+from moli.models.simulation import simulate_batch
+from moli.streaming.chunked import ChunkedEstimator
+from moli.streaming.distributed import estimate_chunks
+
+RECORDS = int(sys.argv[1]) if len(sys.argv) > 1 else 200
+SAMPLES = int(sys.argv[2]) if len(sys.argv) > 2 else 2_000
+LONG = int(float(sys.argv[3])) if len(sys.argv) > 3 else 10**8
+CHUNK = int(float(sys.argv[4])) if len(sys.argv) > 4 else 10**6
+INDICES = (2, 2)
+ALPHA = moli.filter_polynomial(0.5, 0.7, INDICES)
+# samples of the previous chunk's input that set a chunk's initial plant state: the
+# plant forgets its state like 0.92^k, so 600 samples leave 1e-22 of it
+WARM_UP = 600
+
+
+def plant(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A seeded random stable 2x2 plant of order 4, spectral radius 0.9."""
+    rng = np.random.default_rng(seed)
+    A = rng.standard_normal((4, 4))
+    return A * 0.9 / np.max(np.abs(np.linalg.eigvals(A))), rng.standard_normal((4, 2)), rng.standard_normal((2, 4))
+
+
+def loop_record(seed: int, N: int) -> moli.IOData:
+    A, B, C = plant(seed)
+    rng = np.random.default_rng([seed, 1])
+    u = rng.standard_normal((N, 2))
+    y = simulate_batch(A[None], B[None], C[None], u)[0]
+    return moli.IOData(y + 0.05 * y.std(axis=0) * rng.standard_normal(y.shape), u)
+
+
+# The long record's plant: output i is sum_j (b_ij / a_i) u_j, poles 0.9 +- 0.2j and
+# 0.7 +- 0.3j; order 4, observability indices (2, 2). Filtered per channel, a chunk of
+# 10^6 samples takes tens of milliseconds to make, so the benchmark times the reduction.
+DENOMINATORS = [np.poly([0.9 + 0.2j, 0.9 - 0.2j]).real, np.poly([0.7 + 0.3j, 0.7 - 0.3j]).real]
+NUMERATORS = [[[0.0, 1.0, -0.5], [0.0, 0.3, 0.2]], [[0.0, -0.4, 0.1], [0.0, 1.0, 0.3]]]
+
+
+def chunk_input(k: int, length: int) -> np.ndarray:
+    return np.random.default_rng([7, k]).standard_normal((length, 2))
+
+
+def generated_chunk(k: int, length: int) -> tuple[np.ndarray, np.ndarray]:
+    """Chunk k of the long record, made where it is called: its input, the plant's
+    filter states after the previous chunk's last inputs, its outputs with noise."""
+    from scipy.signal import lfilter
+
+    u = chunk_input(k, length)
+    previous = chunk_input(k - 1, length)[-WARM_UP:] if k else None
+    y = np.zeros((length, 2))
+    for i, a in enumerate(DENOMINATORS):
+        for j, b in enumerate(NUMERATORS[i]):
+            state = np.zeros(2) if previous is None else lfilter(b, a, previous[:, j], zi=np.zeros(2))[1]
+            y[:, i] += lfilter(b, a, u[:, j], zi=state)[0]
+    return y + 0.05 * np.random.default_rng([8, k]).standard_normal(y.shape), u
+
+
+def load() -> str:
+    return Path("/proc/loadavg").read_text().split()[0] if Path("/proc/loadavg").exists() else "?"
+
+
+def same(first: moli.FleetResult, second: moli.FleetResult) -> bool:
+    return all(a.error == b.error and (a.result is None or all(
+        np.array_equal(getattr(a.result.model, n), getattr(b.result.model, n)) for n in "ABCD"))
+        for a, b in zip(first, second))
+
+
+def timed(call):
+    start = time.perf_counter()
+    value = call()
+    return value, time.perf_counter() - start
+
+
+def fleet_part(client) -> None:
+    records = [loop_record(seed, SAMPLES) for seed in range(RECORDS)]
+    options = moli.IdentifyOptions()
+    moli.identify(records[0], options=options)  # imports, so that serial pays none of them
+    print(f"## {RECORDS} records, 2x2, {SAMPLES} samples, default options (load {load()})")
+    serial, t_serial = timed(lambda: moli.identify_many(records, options, n_jobs=1, progress=False))
+    print(f"serial:                        {t_serial:6.1f} s  ({1e3 * t_serial / RECORDS:.0f} ms per record)")
+    rows = []
+    for label, run in [
+        ("2 local processes, cold", lambda: moli.identify_many(records, options, n_jobs=2, progress=False)),
+        ("2 local processes, warm", lambda: moli.identify_many(records, options, n_jobs=2, progress=False)),
+        ("LocalCluster 2 workers, cold", lambda: moli.identify_many(records, options, executor=client, progress=False)),
+        ("LocalCluster 2 workers, warm", lambda: moli.identify_many(records, options, executor=client, progress=False)),
+    ]:
+        result, seconds = timed(run)
+        # overhead: the time two workers spend beyond half the serial time, per record
+        overhead = (2 * seconds - t_serial) / RECORDS
+        rows.append(f"{label + ':':30s} {seconds:6.1f} s  speed-up {t_serial / seconds:4.2f}  "
+                    f"overhead {1e3 * overhead:5.1f} ms per record  identical: {same(serial, result)}  (load {load()})")
+        print(rows[-1], flush=True)
+    print(f"failures: {len(serial.failures)}; mean order {np.mean([e.result.selected.order for e in serial]):.2f}")
+
+
+def long_part(client) -> None:
+    count = -(-LONG // CHUNK)
+    lengths = [min(CHUNK, LONG - k * CHUNK) for k in range(count)]
+    chunks = [partial(generated_chunk, k, length) for k, length in enumerate(lengths)]
+    print(f"\n## long record: {LONG:.3g} samples, 2x2, {count} chunks of {CHUNK:.3g} generated on the workers "
+          f"(load {load()})")
+    reduced, t_dask = timed(lambda: estimate_chunks(chunks, INDICES, ALPHA, 2, client=client))
+    print(f"LocalCluster, 2 workers:  {t_dask:6.1f} s  ({LONG / t_dask:.3g} samples/s)  (load {load()})", flush=True)
+
+    def single() -> ChunkedEstimator:
+        est = ChunkedEstimator(INDICES, ALPHA, 2)
+        for chunk in chunks:
+            est.add(*chunk())
+        return est
+
+    reference, t_single = timed(single)
+    print(f"one process, in turn:     {t_single:6.1f} s  ({LONG / t_single:.3g} samples/s)  "
+          f"speed-up {t_single / t_dask:.2f}  (load {load()})")
+    expected, model = reference.model(), reduced.model()
+    gap = max(np.max(np.abs(getattr(model, n) - getattr(expected, n))) / np.max(np.abs(getattr(expected, n)))
+              for n in "ABC")
+    print(f"largest relative difference of A, B, C: {gap:.2e}; samples {reduced.samples}")
+    plant_poles = np.concatenate([np.roots(a) for a in DENOMINATORS])
+    print(f"pole moduli: model {np.sort(np.abs(model.poles())).round(4)}, plant {np.sort(np.abs(plant_poles)).round(4)}")
+
+
+if __name__ == "__main__":
+    from distributed import Client, LocalCluster
+
+    start = time.perf_counter()
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster, \
+            Client(cluster) as client:
+        print(f"LocalCluster start: {time.perf_counter() - start:.1f} s; machine: 2 cores; load {load()}")
+        if RECORDS:
+            fleet_part(client)
+        if LONG:
+            long_part(client)
