@@ -173,3 +173,14 @@ def test_progress_bar_counts_records_and_failures(capsys):
     fleet = {**records(1), "broken": moli.IOData(np.zeros(5), np.ones(5))}
     result = identify_many(fleet, OPTIONS, n_jobs=1)
     assert "2/2" in capsys.readouterr().err and len(result.failures) == 1
+
+
+def test_ray_through_joblib_gives_the_serial_results(serial):
+    ray = pytest.importorskip("ray", reason="the Ray backend test needs ray (not in the test extra)")
+    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False)
+    try:
+        other = identify_many(records(), OPTIONS, executor="ray", n_jobs=2, progress=False)
+    finally:
+        ray.shutdown()
+    assert other.backend == "joblib ray, 2 workers"
+    assert_same_entries(serial, other)

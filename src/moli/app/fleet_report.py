@@ -27,7 +27,7 @@ function sortBy(col) {
   const body = document.querySelector("#fleet tbody");
   const rows = Array.from(body.rows);
   const up = body.dataset.col == col && body.dataset.dir != "up";
-  const key = r => { const t = r.cells[col].textContent; const x = parseFloat(t);
+  const key = r => { const t = r.cells[col].textContent; const x = Number(t);
                      return t === "" ? null : (isNaN(x) ? t : x); };
   rows.sort((a, b) => { const x = key(a), y = key(b);
     if (x === null || y === null) return (x === null) - (y === null);

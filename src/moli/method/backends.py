@@ -141,7 +141,9 @@ def _joblib(backend: str, workers: int, function: Callable[..., Any],
     except ValueError as exc:
         raise OptionError(f"executor: {exc}") from None
     with config:
-        results = Parallel(return_as="generator_unordered")(
-            delayed(_indexed)(function, i, args) for i, args in enumerate(calls)
-        )
+        try:
+            parallel = Parallel(return_as="generator_unordered")
+        except ValueError:  # a backend that only returns lists (Ray's): progress at the end
+            parallel = Parallel(return_as="list")
+        results = parallel(delayed(_indexed)(function, i, args) for i, args in enumerate(calls))
         yield ((index, value, None) for index, value in results)
