@@ -100,6 +100,17 @@ class FleetResult:
         Where it ran, e.g. ``"loky, 2 processes"`` or ``"dask, tcp://10.0.0.5:8786"``.
     seconds : float
         Wall time of the whole fleet.
+
+    Examples
+    --------
+    >>> import moli
+    >>> fleet = moli.identify_many([moli.example_data(N=300, seed=1), moli.IOData([0.0] * 5, [1.0] * 5)],
+    ...                            moli.IdentifyOptions(nmax=3), n_jobs=1, progress=False)
+    >>> [entry.name for entry in fleet], len(fleet.failures), fleet.backend
+    (['record-0', 'record-1'], 1, 'this process')
+    >>> row = fleet.rows()[0]
+    >>> sorted(row), row["order"]
+    (['error', 'fit', 'name', 'order', 'seconds', 'vaf'], 3)
     """
 
     entries: list[FleetEntry]
@@ -217,17 +228,19 @@ def identify_many(
     if options is not None and not isinstance(options, IdentifyOptions):
         raise OptionError(f"options must be an IdentifyOptions, got {type(options).__name__}")
     reading = _read_options(read_options)
-    report = _progress(progress)
+    if not (isinstance(progress, bool) or callable(progress)):
+        raise OptionError(f"progress must be True, False or a callable, got {progress!r}")
     calls = [(name, item, options or IdentifyOptions(), reading) for name, item in items]
-    entries: list[FleetEntry] = [FleetEntry(name, None, "not run", 0.0) for name, _ in items]
+    entries: dict[int, FleetEntry] = {}
     start = time.perf_counter()
-    with run_calls(_identify_one, calls, executor, n_jobs) as (backend, done), report(len(calls)) as tell:
+    with run_calls(_identify_one, calls, executor, n_jobs) as (backend, done), \
+            _reporting(progress, len(calls)) as tell:
         for index, entry, lost in done:
             if lost is not None:  # the backend could not return it (a worker died, say)
                 entry = FleetEntry(items[index][0], None, f"{type(lost).__name__}: {lost}", 0.0)
             entries[index] = entry
             tell(entry)
-    return FleetResult(entries, backend, time.perf_counter() - start)
+    return FleetResult([entries[i] for i in range(len(calls))], backend, time.perf_counter() - start)
 
 
 def _name_of(item: Item, position: int) -> str:
@@ -277,34 +290,29 @@ def _read_options(read_options: Mapping[str, Any] | None) -> dict[str, Any]:
     return dict(read_options)
 
 
-def _progress(progress: Any) -> Callable[[int], Any]:
-    """A context manager factory: given the count, it yields the per-entry callback."""
-    if progress is False or progress is None:
-        return lambda total: contextlib.nullcontext(lambda entry: None)
+@contextlib.contextmanager
+def _reporting(progress: bool | Callable[[FleetEntry], None], total: int) -> Iterator[Callable[[FleetEntry], None]]:
+    """The callback told of each finished entry: the caller's, a bar on stderr, or nothing."""
     if callable(progress):
-        return lambda total: contextlib.nullcontext(progress)
-    if progress is not True:
-        raise OptionError(f"progress must be True, False or a callable, got {progress!r}")
+        yield progress
+        return
+    try:
+        from tqdm import tqdm
+    except ImportError:  # the bar is a convenience of the cli extra
+        progress = False
+    if not progress:
+        yield lambda entry: None
+        return
+    with tqdm(total=total, desc="fleet", unit="record", file=sys.stderr) as shown:
+        failed = 0
 
-    @contextlib.contextmanager
-    def bar(total: int) -> Iterator[Callable[[FleetEntry], None]]:
-        try:
-            from tqdm import tqdm
-        except ImportError:  # the bar is a convenience of the cli extra
-            yield lambda entry: None
-            return
-        with tqdm(total=total, desc="fleet", unit="record", file=sys.stderr) as shown:
-            failed = 0
+        def tell(entry: FleetEntry) -> None:
+            nonlocal failed
+            failed += not entry.ok
+            shown.set_postfix_str(f"{failed} failed", refresh=False)
+            shown.update()
 
-            def tell(entry: FleetEntry) -> None:
-                nonlocal failed
-                failed += not entry.ok
-                shown.set_postfix_str(f"{failed} failed", refresh=False)
-                shown.update()
-
-            yield tell
-
-    return bar
+        yield tell
 
 
 def _blas_one_thread() -> contextlib.AbstractContextManager[Any]:
