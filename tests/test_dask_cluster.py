@@ -76,11 +76,12 @@ def long_record(folder: Path, kind: str) -> tuple[list, ChunkedEstimator]:
     return chunks, reference
 
 
-@pytest.mark.parametrize("kind", ["parquet", "zarr"])
-def test_long_record_reduction_on_the_cluster_equals_the_single_process_estimate(client, tmp_path, kind):
+@pytest.mark.parametrize("kind, read_once", [("parquet", False), ("zarr", False), ("parquet", True)])
+def test_long_record_reduction_on_the_cluster_equals_the_single_process_estimate(client, tmp_path, kind,
+                                                                                   read_once):
     chunks, reference = long_record(tmp_path, kind)
     assert len(chunks) == 9  # 8 full pieces and a short last one: the tree is not balanced
-    reduced = estimate_chunks(chunks, INDICES, ALPHA, 3, client=client)
+    reduced = estimate_chunks(chunks, INDICES, ALPHA, 3, client=client, read_once=read_once)
     assert reduced.samples == reference.samples == 60_000
     expected, model = reference.model(), reduced.model()
     for name in "ABC":

@@ -61,6 +61,15 @@ def test_any_chunking_matches_the_single_estimator(sizes):
         np.testing.assert_allclose(mine, theirs, rtol=1e-12, atol=1e-12)
 
 
+def test_reading_once_gives_the_same_estimate():
+    chunks = chunks_at([0, 200, 700, N])
+    twice = estimate_chunks(chunks, INDICES, ALPHA, 3)
+    once = estimate_chunks(chunks, INDICES, ALPHA, 3, read_once=True)
+    np.testing.assert_array_equal(once.model().A, twice.model().A)  # the same arithmetic
+    with pytest.raises(OptionError, match="read_once must be True or False"):
+        estimate_chunks(chunks, INDICES, ALPHA, 3, read_once="yes")
+
+
 def test_empty_chunks_change_nothing():
     bounds = [0, 300, 300, 900, N]  # an empty chunk between two others
     reduced = estimate_chunks(chunks_at(bounds), INDICES, ALPHA, 3)

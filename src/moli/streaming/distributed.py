@@ -20,7 +20,8 @@ in turn, computed in three steps, none of which gathers the record in one place:
    of ``[R_a; R_b]`` (:meth:`ChunkedEstimator.merge`) in a binary tree.
 
 Each chunk is read twice, one chunk per worker thread at a time, so a worker's
-memory holds one chunk and a few ``K x K`` factors whatever the record's length.
+memory holds one chunk and a few ``K x K`` factors whatever the record's length;
+``read_once=True`` reads it once and keeps it on its worker between the two passes.
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ def estimate_chunks(
     *,
     client: Any = None,
     Ts: float = 1.0,
+    read_once: bool = False,
 ) -> ChunkedEstimator:
     """The whole-record batch estimate of a chunked record, reduced on Dask workers.
 
@@ -54,9 +56,9 @@ def estimate_chunks(
     chunks : sequence of callables
         The record in time order: ``chunk()`` returns that chunk's ``(y, u)``, shapes
         (N_k, p) and (N_k, m) (1-D for one channel). Each is sent to a worker and
-        called there twice, so it should read or generate its samples rather than
-        hold them: :func:`moli.data.chunks.list_chunks` gives such chunks for Parquet
-        and Zarr files.
+        called there (twice, unless ``read_once``), so it should read or generate its
+        samples rather than hold them: :func:`moli.data.chunks.list_chunks` gives such
+        chunks for Parquet and Zarr files.
     indices : sequence of int
         Observability indices, one per output.
     alpha : array_like
@@ -67,6 +69,11 @@ def estimate_chunks(
         Where to run; None runs the same steps in this process.
     Ts : float, default 1.0
         Sampling period given to the model.
+    read_once : bool, default False
+        Keep each chunk's samples where they were read, from the state maps to the
+        factors, instead of reading them again: for chunks slow to read or make. The
+        cluster then holds the whole record at once (Dask spills what its workers'
+        memory cannot hold to their disks); without a client, this process does.
 
     Returns
     -------
@@ -104,11 +111,16 @@ def estimate_chunks(
     for k, chunk in enumerate(chunks):
         if not callable(chunk):
             raise DataError(f"chunks[{k}] must be callable, returning (y, u); got {type(chunk).__name__}")
+    if not isinstance(read_once, bool):
+        raise OptionError(f"read_once must be True or False, got {read_once!r}")
     run = _Runner(client)
-    maps = run.gather([run.submit(_state_map, chunk, spec) for chunk in chunks])
+    # with read_once, a source is the future (or value) of a chunk's samples, else the chunk
+    sources = [run.submit(_samples, chunk) for chunk in chunks] if read_once else chunks
+    maps = run.gather([run.submit(_state_map, source, spec) for source in sources])
     starts, states = _scan(maps, template.filter_states())
-    parts = [run.submit(_estimate, chunk, spec, start, state)
-             for chunk, start, state in zip(chunks, starts, states)]
+    parts = [run.submit(_estimate, source, spec, start, state)
+             for source, start, state in zip(sources, starts, states)]
+    del sources  # the factors' tasks hold the samples they need; nothing else should
     while len(parts) > 1:  # neighbours only: merging needs consecutive parts
         parts = [run.submit(ChunkedEstimator.merge, *parts[i : i + 2]) if i + 1 < len(parts) else parts[i]
                  for i in range(0, len(parts), 2)]
@@ -134,16 +146,17 @@ class _Runner:
         return values if self.client is None else self.client.gather(values)
 
 
-def _samples(chunk: Chunk) -> tuple[Any, Any]:
-    values = chunk()
+def _samples(source: Chunk | tuple[Any, Any]) -> tuple[Any, Any]:
+    """A chunk's ``(y, u)``: read by calling it, or already read."""
+    values = source() if callable(source) else source
     if not (isinstance(values, tuple) and len(values) == 2):
         raise DataError(f"a chunk must return (y, u), got {type(values).__name__}")
     return values
 
 
-def _state_map(chunk: Chunk, spec: Spec) -> tuple[int, list[tuple[np.ndarray, np.ndarray]]]:
+def _state_map(source: Any, spec: Spec) -> tuple[int, list[tuple[np.ndarray, np.ndarray]]]:
     """Step 1 on a worker: the chunk's length and how it moves the filter states."""
-    y, u = _samples(chunk)
+    y, u = _samples(source)
     estimator = ChunkedEstimator(*spec)
     maps = estimator.state_map(y, u)
     return int(np.shape(y)[0]), maps
@@ -163,7 +176,7 @@ def _scan(
     return starts, states
 
 
-def _estimate(chunk: Chunk, spec: Spec, start: int, states: list[np.ndarray]) -> ChunkedEstimator:
+def _estimate(source: Any, spec: Spec, start: int, states: list[np.ndarray]) -> ChunkedEstimator:
     """Step 3 on a worker: the chunk's factors, its filters started in their exact state."""
-    y, u = _samples(chunk)
+    y, u = _samples(source)
     return ChunkedEstimator(*spec).resume(start, states).add(y, u)
