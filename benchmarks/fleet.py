@@ -135,7 +135,7 @@ def long_part(client) -> None:
     reference, t_single = timed(single)
     print(f"one process, in turn:     {t_single:6.1f} s  ({LONG / t_single:.3g} samples/s)  "
           f"speed-up {t_single / t_dask:.2f}, read_once {t_single / t_once:.2f}  (load {load()})")
-    expected, model = reference.model(), reduced.model()
+    expected = reference.model()
     for label, estimator in (("", reduced), (", read_once", once)):
         model = estimator.model()
         gap = max(np.max(np.abs(getattr(model, n) - getattr(expected, n))) / np.max(np.abs(getattr(expected, n)))

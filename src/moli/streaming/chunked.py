@@ -47,6 +47,13 @@ class ChunkedEstimator(FixedFilterEstimator):
     Ts : float, default 1.0
         Sampling period given to the model.
 
+    Attributes
+    ----------
+    start : int
+        The record's sample this estimator began at (0, or as given to :meth:`resume`).
+    samples : int
+        The record's samples up to the last one absorbed (``start`` plus those absorbed).
+
     Examples
     --------
     >>> import numpy as np, moli
