@@ -111,12 +111,20 @@ def timed(call):
     return value, time.perf_counter() - start
 
 
-def cluster():
-    """A 2-worker LocalCluster and its client, started only for the runs that use it."""
+def cluster(trim: bool = False):
+    """A 2-worker LocalCluster and its client, started only for the runs that use it.
+
+    Dask's nannies start their workers with MALLOC_TRIM_THRESHOLD_=65536, which makes
+    glibc map and unmap every medium-sized array: an identification then takes 1.5 to
+    2 times longer. Unless ``trim``, the workers start without it (docs/fleet.md).
+    """
+    import dask
     from distributed import Client, LocalCluster
 
     started = time.perf_counter()
-    local = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
+    unset = {} if trim else {"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None}
+    with dask.config.set(unset):
+        local = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
     client = Client(local)
     print(f"LocalCluster start: {time.perf_counter() - started:.1f} s (load {load()})")
     return local, client
@@ -136,7 +144,7 @@ def fleet_part() -> None:
         return moli.identify_many(records, options, n_jobs=2, progress=False)
 
     reference, t_serial = timed(serial)
-    print(f"serial:                        {t_serial:6.1f} s  (load {load()})", flush=True)
+    print(f"{'serial:':38s} {t_serial:6.1f} s  (load {load()})", flush=True)
     # the background load of this shared machine varies: serial and parallel runs
     # alternate, and each figure is the best of its runs
     times: dict[str, list[float]] = {"serial": [t_serial]}
@@ -145,20 +153,21 @@ def fleet_part() -> None:
                        ("2 local processes, warm", local)]:
         result, seconds = timed(run)
         times.setdefault(label, []).append(seconds)
-        print(f"{label + ':':30s} {seconds:6.1f} s  identical: {same(reference, result)}  (load {load()})", flush=True)
-    local_cluster, client = cluster()
-    with local_cluster, client:
-        for label in ["LocalCluster 2 workers, cold"] + ["LocalCluster 2 workers, warm"] * 2:
-            result, seconds = timed(lambda: moli.identify_many(records, options, executor=client, progress=False))
-            times.setdefault(label, []).append(seconds)
-            print(f"{label + ':':30s} {seconds:6.1f} s  identical: {same(reference, result)}  (load {load()})",
-                  flush=True)
+        print(f"{label + ':':38s} {seconds:6.1f} s  identical: {same(reference, result)}  (load {load()})", flush=True)
+    for trim, name, warm_runs in [(True, "LocalCluster, Dask's malloc trim", 1), (False, "LocalCluster", 2)]:
+        local_cluster, client = cluster(trim)
+        with local_cluster, client:
+            for label in [f"{name}, cold"] + [f"{name}, warm"] * warm_runs:
+                result, seconds = timed(lambda: moli.identify_many(records, options, executor=client, progress=False))
+                times.setdefault(label, []).append(seconds)
+                print(f"{label + ':':38s} {seconds:6.1f} s  identical: {same(reference, result)}  (load {load()})",
+                      flush=True)
     best_serial = min(times.pop("serial"))
     print(f"\nbest serial: {best_serial:.1f} s ({1e3 * best_serial / RECORDS:.0f} ms per record)")
     for label, runs in times.items():
         best = min(runs)
         # overhead: the time two workers spend beyond half the serial time, per record
-        print(f"{label + ':':30s} best {best:5.1f} s  speed-up {best_serial / best:4.2f}  "
+        print(f"{label + ':':38s} best {best:5.1f} s  speed-up {best_serial / best:4.2f}  "
               f"overhead {1e3 * (2 * best - best_serial) / RECORDS:5.1f} ms per record")
     print(f"failures: {len(reference.failures)}; mean order "
           f"{np.mean([e.result.selected.order for e in reference]):.2f}; free cores now: {free_cores():.2f}")
