@@ -38,7 +38,9 @@ _HOMES = {
     "filter_polynomial": "method", "IdentificationResult": "method", "identify": "method",
     "IdentifyOptions": "method", "PathStep": "method", "estimate_noise_model": "method",
     "estimate_covariance": "method",
+    "identify_many": "method", "FleetResult": "method",
     "RecursiveMoli": "streaming", "ChunkedEstimator": "streaming", "FilterBank": "streaming",
+    "estimate_chunks": "streaming",
     "example_data": "systems", "example_plant": "systems", "experiment": "systems",
 }
 _SUBPACKAGES = ("data", "models", "validation", "method", "streaming", "systems", "control", "app")
@@ -57,11 +59,11 @@ if TYPE_CHECKING:  # what the lazy names are, for type checkers and IDEs
         load_daisy, random_binary_signal, read_data, to_dataframe,
     )
     from .method import (
-        IdentificationResult, IdentifyOptions, PathStep, divisor, divisors, estimate,
-        estimate_covariance, estimate_noise_model, filter_polynomial, identify,
+        FleetResult, IdentificationResult, IdentifyOptions, PathStep, divisor, divisors, estimate,
+        estimate_covariance, estimate_noise_model, filter_polynomial, identify, identify_many,
     )
     from .models import ContinuousModel, StateSpaceModel, load_model
-    from .streaming import ChunkedEstimator, FilterBank, RecursiveMoli
+    from .streaming import ChunkedEstimator, FilterBank, RecursiveMoli, estimate_chunks
     from .systems import example_data, example_plant, experiment
     from .validation import (
         Comparison, EmpiricalResponse, FeedbackCheck, ResidualAnalysis, compare, cost_j,

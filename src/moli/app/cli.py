@@ -31,6 +31,7 @@ from ..models.storage import load_model
 from ..systems.plant import example_data
 from ..validation.comparison import X0_CHOICES, compare
 from .figures import measured_vs_simulated
+from .fleet_cli import fleet_commands
 from .report import write_report
 
 __all__ = ["cli", "main", "describe", "options_from_flags"]
@@ -357,6 +358,10 @@ def describe(model: StateSpaceModel) -> str:
         lines.append(f"estimated on {data.get('source', '?')}: {data['N']} samples, "
                      f"sha256 {data['sha256'][:16]}...")
     return "\n".join(lines)
+
+
+for _command in fleet_commands(options_from_flags):  # fit-many, validate-many
+    cli.add_command(_command)
 
 
 def main() -> None:

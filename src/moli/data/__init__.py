@@ -1,5 +1,6 @@
 """Records in: the IOData container, file readers and writers, DaISy data sets, test signals."""
 
+from .chunks import RecordChunk, list_chunks
 from .daisy import (
     DaisyInfo, DatasetChecksumError, DatasetUnavailableError, daisy_path, daisy_url, list_daisy,
     load_daisy,
@@ -17,5 +18,5 @@ __all__ = [
     "file_sha256", "detect_encoding", "SamplingGap", "find_gaps",
     "DaisyInfo", "DatasetChecksumError", "DatasetUnavailableError", "daisy_path", "daisy_url",
     "list_daisy", "load_daisy", "SignalError", "random_binary_signal", "QualityIssue", "check_data",
-    "screen",
+    "screen", "RecordChunk", "list_chunks",
 ]

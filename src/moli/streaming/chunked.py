@@ -8,16 +8,24 @@ has the column norms of ``Phi``, so solving the small triangular problem with
 :func:`moli.method.estimation.solve_batch` gives the whole-record least-squares solution
 of :func:`moli.estimate` (up to round-off), never forming normal equations.
 Memory is constant: a few K x K factors plus one chunk.
+
+Parts of one record can also be estimated apart and combined: :meth:`ChunkedEstimator.resume`
+starts an estimator mid-record from given filter states, :meth:`ChunkedEstimator.state_map`
+says how a chunk moves those states, and :meth:`ChunkedEstimator.merge` joins the factors
+of consecutive parts (the R of ``[R_a; R_b]`` is the R of both parts' rows).
+:func:`moli.streaming.distributed.estimate_chunks` builds on them.
 """
 
 from __future__ import annotations
 
+import copy
 import warnings
 from typing import Sequence
 
 import numpy as np
 
-from ..errors import IllConditionedWarning
+from ..data.iodata import stack_signals
+from ..errors import DataError, IllConditionedWarning, OptionError
 from ..method.estimation import COND_LIMIT, check_sample_count, realize, solve_batch
 from ..models.statespace import StateSpaceModel
 from .recursive import FixedFilterEstimator
@@ -39,6 +47,13 @@ class ChunkedEstimator(FixedFilterEstimator):
     Ts : float, default 1.0
         Sampling period given to the model.
 
+    Attributes
+    ----------
+    start : int
+        The record's sample this estimator began at (0, or as given to :meth:`resume`).
+    samples : int
+        The record's samples up to the last one absorbed (``start`` plus those absorbed).
+
     Examples
     --------
     >>> import numpy as np, moli
@@ -51,11 +66,104 @@ class ChunkedEstimator(FixedFilterEstimator):
     >>> est = est.add(y[:100], u[:100]).add(y[100:], u[100:])
     >>> np.round(est.model().poles().real, 6)
     array([0.8])
+
+    The second half estimated apart, from the states the first half ends in, then merged:
+
+    >>> first = ChunkedEstimator([1], moli.filter_polynomial(1.0, 1.0, [1]), 1).add(y[:150], u[:150])
+    >>> second = ChunkedEstimator([1], first.alpha, 1).resume(150, first.filter_states())
+    >>> both = first.merge(second.add(y[150:], u[150:]))
+    >>> both.samples, np.round(both.model().poles().real, 6)
+    (300, array([0.8]))
     """
 
     def __init__(self, indices: Sequence[int], alpha: Sequence[float], m: int, Ts: float = 1.0) -> None:
         # no forgetting, unit noise variance and no prior: the plain least-squares factor
         super().__init__(indices, alpha, m, Ts, 1.0, 1.0, np.inf)
+        self.start = 0
+
+    def filter_states(self) -> list[np.ndarray]:
+        """The filter states after the samples absorbed so far.
+
+        Returns
+        -------
+        list of ndarray
+            One per distinct index ``l`` (ascending), shape (2 l, p + m): the
+            ``lfilter`` state of each signal, then its last ``l`` filtered samples.
+        """
+        return [state[0] for state in self._bank.filter_states()]
+
+    def resume(self, start: int, states: Sequence[np.ndarray]) -> "ChunkedEstimator":
+        """Begin mid-record: the next chunk starts at sample ``start``, the filters in ``states``.
+
+        Parameters
+        ----------
+        start : int
+            Samples of the record before the next chunk (the first ``max(indices)``
+            samples of the record only charge the filters).
+        states : sequence of ndarray
+            The layout of :meth:`filter_states`, e.g. from an estimator that absorbed
+            the record's first ``start`` samples.
+
+        Returns
+        -------
+        ChunkedEstimator
+            ``self``.
+        """
+        if self.samples:
+            raise OptionError("resume an estimator before it absorbs any sample")
+        if isinstance(start, bool) or not isinstance(start, (int, np.integer)) or start < 0:
+            raise OptionError(f"start must be a sample count >= 0, got {start!r}")
+        expected = [state.shape[1:] for state in self._bank.filter_states()]
+        arrays = [np.array(state, dtype=float) for state in states]
+        if [a.shape for a in arrays] != expected or not all(np.all(np.isfinite(a)) for a in arrays):
+            raise DataError(f"states must be finite arrays of shapes {expected}")
+        self._bank.resume(int(start), [a[None] for a in arrays])
+        self.start = int(start)
+        return self
+
+    def state_map(self, y: object, u: object) -> list[tuple[np.ndarray, np.ndarray]]:
+        """How a chunk moves the filter states, without absorbing it.
+
+        Parameters
+        ----------
+        y : array_like, shape (N, p)
+        u : array_like, shape (N, m)
+
+        Returns
+        -------
+        list of (ndarray, ndarray)
+            Per distinct index ``l`` (ascending), ``(T, s)`` of shapes (2 l, 2 l) and
+            (2 l, p + m): a chunk that starts in state ``S`` ends in ``T @ S + s``.
+        """
+        z = stack_signals(y, u, len(self.indices), self.m)
+        return [(T[0], s[0]) for T, s in self._bank.state_map(z)]
+
+    def merge(self, later: "ChunkedEstimator") -> "ChunkedEstimator":
+        """This estimator and ``later``, which continued the same record, as one.
+
+        Parameters
+        ----------
+        later : ChunkedEstimator
+            Same indices, filter and inputs, resumed where this one ends
+            (``later.start == self.samples``).
+
+        Returns
+        -------
+        ChunkedEstimator
+            A new estimator over both parts, equal (to round-off) to one that absorbed
+            them in turn; neither input is changed. Merging is associative.
+        """
+        if not isinstance(later, ChunkedEstimator):
+            raise OptionError(f"later must be a ChunkedEstimator, got {type(later).__name__}")
+        if (later.indices, later.m) != (self.indices, self.m) or not np.array_equal(later.alpha, self.alpha):
+            raise OptionError("merge needs estimators of the same indices, filter and inputs")
+        if later.start != self.samples:
+            raise DataError(
+                f"later starts at sample {later.start}, but this estimator ends at {self.samples}"
+            )
+        merged = copy.deepcopy(self)
+        merged._bank.merge(later._bank)
+        return merged
 
     def add(self, y: object, u: object) -> "ChunkedEstimator":
         """Absorb the next chunk of the record.

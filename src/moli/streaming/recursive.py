@@ -99,6 +99,37 @@ class BankRls:
             skip = max(0, skip - piece.shape[0])
         self.samples += z.shape[0]
 
+    def filter_states(self) -> list[np.ndarray]:
+        """Per distinct index ``l`` (ascending), the filter states, shape (R, 2 l, p + m)."""
+        return [regressors.state() for _, regressors, _ in self._groups]
+
+    def resume(self, samples: int, states: Sequence[np.ndarray]) -> None:
+        """Continue a record at sample ``samples`` whose filters hold ``states`` there."""
+        for (_, regressors, _), state in zip(self._groups, states):
+            regressors.set_state(state)
+        self.samples = samples
+
+    def state_map(self, z: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+        """How the samples ``z`` move the filter states, leaving this bank unchanged.
+
+        Per distinct index ``l`` (ascending): ``(T, s)`` with the state after ``z``
+        equal to ``T @ state_before + s`` (shapes (R, 2 l, 2 l) and (R, 2 l, p + m)).
+        """
+        maps = []
+        for _, regressors, _ in self._groups:
+            fresh = CausalRegressors(regressors.filters, z.shape[1])
+            fresh.advance(z)
+            maps.append((regressors.transition(z.shape[0]), fresh.state()))
+        return maps
+
+    def merge(self, other: "BankRls") -> None:
+        """Absorb the rows of ``other``, a bank over the same filters that continued
+        this one's record; the states become ``other``'s (plain least squares only)."""
+        for (_, regressors, rls), (_, later, later_rls) in zip(self._groups, other._groups):
+            rls.factor = np.linalg.qr(np.concatenate([rls.factor, later_rls.factor], axis=1), mode="r")
+            regressors.set_state(later.state())
+        self.samples = other.samples
+
     def factors(self) -> list[tuple[int, np.ndarray]]:
         """Per output ``j``: the count ``k_j`` of its parameters and its group's factors.
 

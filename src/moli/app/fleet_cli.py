@@ -1,0 +1,217 @@
+"""The fleet commands: ``moli fit-many`` and ``moli validate-many``.
+
+``fit-many`` identifies every record matched by glob patterns (on local processes or
+a Dask scheduler) and writes one model file per record and a summary table;
+``validate-many`` scores such a folder of models on new records and flags the loops
+whose fit dropped. Both exit with code 1 when a record failed or was flagged, so a
+scheduled job notices; bad arguments end with ``moli: error: ...`` and code 2.
+"""
+
+from __future__ import annotations
+
+import glob
+from pathlib import Path
+from typing import Any, Callable
+
+import click
+import numpy as np
+
+from ..data.files import read_data
+from ..errors import DataError, MoliError, OptionError
+from ..method.fleet import identify_many
+from ..method.identification import IdentificationResult
+from ..method.options import PRESETS, IdentifyOptions
+from ..models.storage import load_model
+from ..validation.comparison import X0_CHOICES, compare
+from .fleet_report import write_summary
+
+__all__ = ["fleet_commands", "match_files"]
+
+FAILED = 1
+# validate-many flags a loop whose mean fit fell by more than this many points.
+DEFAULT_MAX_DROP = 5.0
+FIT_COLUMNS = ("name", "order", "fit", "vaf", "seconds", "error", "source")
+CHECK_COLUMNS = ("name", "fit_before", "fit_now", "drop", "vaf_now", "status", "error", "source")
+# validate-many statuses that flag a loop (a model without a new record is only listed)
+FLAGGED = ("dropped", "failed", "no model")
+
+
+def match_files(patterns: tuple[str, ...]) -> list[Path]:
+    """The files matched by glob patterns (or named outright), sorted, each once.
+
+    Raises :class:`DataError` naming a pattern that matches no file.
+    """
+    found: dict[Path, None] = {}
+    for pattern in patterns:
+        hits = sorted(Path(hit) for hit in glob.glob(pattern, recursive=True) if Path(hit).is_file())
+        if not hits:
+            raise DataError(f"no file matches {pattern!r}")
+        found.update(dict.fromkeys(hits))
+    return list(found)
+
+
+def _names(text: str | None) -> list[str] | None:
+    return None if text is None else [name.strip() for name in text.split(",") if name.strip()]
+
+
+def _client(address: str) -> Any:
+    try:
+        from distributed import Client
+    except ImportError:
+        raise OptionError("--scheduler needs Dask: pip install 'moli[distributed]'") from None
+    try:
+        return Client(address, timeout="20s")
+    except (OSError, TimeoutError) as exc:
+        raise OptionError(f"--scheduler: cannot reach {address}: {exc}") from None
+
+
+def _save(result: IdentificationResult, fit: float | None, source: Path, path: Path) -> None:
+    """The selected model, with where it came from and its validation scores."""
+    result.model.info.update({
+        "data": {"source": str(source), "N": result.estimation.N + result.validation.N,
+                 "validation_N": result.validation.N, "validation_source": result.validation_source},
+        "validation_vaf": result.selected.vaf.tolist(),
+        "validation_fit": fit,
+    })
+    result.model.save(path)
+
+
+def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[click.Command]:
+    """The ``fit-many`` and ``validate-many`` commands.
+
+    Parameters
+    ----------
+    options_from_flags : callable
+        The command line's one rule turning ``--options``/``--preset`` and the option
+        flags into :class:`IdentifyOptions` (``moli.app.cli.options_from_flags``),
+        handed in so that this module does not import the one that registers it.
+
+    Returns
+    -------
+    list of click.Command
+    """
+
+    @click.command("fit-many")
+    @click.argument("patterns", metavar="PATTERN...", nargs=-1, required=True)
+    @click.option("--inputs", required=True, help="Comma-separated input column names, e.g. u1,u2.")
+    @click.option("--outputs", required=True, help="Comma-separated output column names, e.g. y1,y2.")
+    @click.option("--ts", type=float, help="Sampling period [default: a time column's step, else 1].")
+    @click.option("--workers", type=click.IntRange(min=1),
+                  help="Local worker processes [default: the usable CPUs].")
+    @click.option("--scheduler", metavar="ADDRESS",
+                  help="Run on this Dask scheduler (e.g. tcp://10.0.0.5:8786) instead of local processes.")
+    @click.option("--options", "options_file", type=click.Path(path_type=Path),
+                  help="JSON file of identification options, or a saved model whose options are reused.")
+    @click.option("--preset", type=click.Choice(PRESETS), help="Search options [default: improved].")
+    @click.option("--nmax", type=int, help="Largest order on the greedy path [default: max(10, p + 4)].")
+    @click.option("--seed", type=int, help="Seed of the randomized filter search [default: 0].")
+    @click.option("--out", "out_dir", default="models", show_default=True, type=click.Path(path_type=Path),
+                  help="Folder for NAME.json per record and summary.csv / summary.html.")
+    def fit_many(patterns: tuple[str, ...], inputs: str, outputs: str, ts: float | None,
+                 workers: int | None, scheduler: str | None, options_file: Path | None,
+                 preset: str | None, nmax: int | None, seed: int | None, out_dir: Path) -> None:
+        """Identify every record matched by PATTERN (quote it: 'plant/*.csv').
+
+        Each record is named by its file's stem and identified on its own, its last
+        30 % held out for the order rule; one that fails is listed with its error
+        and the others go on.
+        """
+        if scheduler is not None and workers is not None:
+            raise OptionError("give either --workers (local processes) or --scheduler, not both")
+        options = options_from_flags(options_file, preset, nmax=nmax, seed=seed)
+        files = match_files(patterns)
+        read = {"inputs": _names(inputs), "outputs": _names(outputs), "Ts": ts}
+        executor = None if scheduler is None else _client(scheduler)
+        try:
+            fleet = identify_many(files, options, executor=executor, n_jobs=workers, read_options=read)
+        finally:
+            if executor is not None:
+                executor.close()
+        out_dir.mkdir(parents=True, exist_ok=True)
+        rows = []
+        for entry, source in zip(fleet, files):
+            if entry.result is not None:
+                _save(entry.result, entry.fit, source, out_dir / f"{entry.name}.json")
+            rows.append({**entry.row(), "source": str(source)})
+        csv_path, html_path = write_summary(
+            rows, FIT_COLUMNS, out_dir, "summary", "moli fit-many", "fit",
+            notes=[f"fit and vaf: mean over the outputs of the selected model's NRMSE fit and VAF "
+                   f"on the held-out tail, percent; run on {fleet.backend} in {fleet.seconds:.1f} s"],
+        )
+        failed = fleet.failures
+        click.echo(f"{len(fleet)} records on {fleet.backend} in {fleet.seconds:.1f} s: "
+                   f"{len(fleet) - len(failed)} models in {out_dir}, {len(failed)} failed")
+        for entry in failed:
+            click.echo(f"  failed: {entry.name}: {entry.error}", err=True)
+        click.echo(f"summary written to {csv_path} and {html_path}")
+        if failed:
+            raise click.exceptions.Exit(FAILED)
+
+    @click.command("validate-many")
+    @click.argument("models_dir", metavar="MODELS", type=click.Path(path_type=Path))
+    @click.argument("patterns", metavar="PATTERN...", nargs=-1, required=True)
+    @click.option("--x0", type=click.Choice(X0_CHOICES), default="zero", show_default=True,
+                  help="Simulate from the zero state or from a least-squares initial state.")
+    @click.option("--max-drop", type=click.FloatRange(min=0), default=DEFAULT_MAX_DROP, show_default=True,
+                  help="Flag a loop whose mean fit fell by more than this many points.")
+    @click.option("--out", "out_dir", type=click.Path(path_type=Path),
+                  help="Folder for validation.csv / validation.html [default: MODELS].")
+    def validate_many(models_dir: Path, patterns: tuple[str, ...], x0: str, max_drop: float,
+                      out_dir: Path | None) -> None:
+        """Score the models in MODELS on the new records matched by PATTERN.
+
+        A record is checked by the model of the same name (MODELS/NAME.json for
+        NAME.csv), read with its channel names and period. A loop is flagged when
+        its mean NRMSE fit fell by more than --max-drop points from the fit saved
+        by fit-many.
+        """
+        if not models_dir.is_dir():
+            raise DataError(f"no folder of models at {models_dir}")
+        models = {path.stem: path for path in sorted(models_dir.glob("*.json"))}
+        records = {path.stem: path for path in match_files(patterns)}
+        if not set(models) & set(records):
+            raise DataError(f"no record matched by {', '.join(patterns)} has a model of its name in {models_dir}")
+        rows = [_check(name, models.get(name), records[name], x0, max_drop) for name in records]
+        rows += [{"name": name, "status": "no new record", "source": str(path)}
+                 for name, path in models.items() if name not in records]
+        flagged = [row["status"] in FLAGGED for row in rows]
+        csv_path, html_path = write_summary(
+            rows, CHECK_COLUMNS, out_dir or models_dir, "validation", "moli validate-many", "drop",
+            flagged=flagged,
+            notes=[f"fit: mean NRMSE fit, percent, simulation from the {x0} initial state; "
+                   f"dropped: the fit fell by more than {max_drop:g} points from fit_before, "
+                   "the fit fit-many saved with the model"],
+        )
+        click.echo(f"{'name':<24}{'fit before':>12}{'fit now':>10}{'drop':>8}  status")
+        for row in sorted(rows, key=lambda r: -(r.get("drop") or 0)):
+            click.echo(f"{row['name']:<24}{_number(row.get('fit_before')):>12}"
+                       f"{_number(row.get('fit_now')):>10}{_number(row.get('drop')):>8}  "
+                       + (f"failed: {row['error']}" if row.get("error") else row["status"]))
+        click.echo(f"{len(rows)} loops, {sum(flagged)} flagged; written to {csv_path} and {html_path}")
+        if any(flagged):
+            raise click.exceptions.Exit(FAILED)
+
+    return [fit_many, validate_many]
+
+
+def _number(value: float | None) -> str:
+    return "" if value is None else f"{value:.2f}"
+
+
+def _check(name: str, model_path: Path | None, record: Path, x0: str, max_drop: float) -> dict[str, Any]:
+    """One loop's check; a failure is the row's error, never the end of the run."""
+    row: dict[str, Any] = {"name": name, "source": str(record)}
+    if model_path is None:
+        return {**row, "status": "no model"}
+    try:
+        model = load_model(model_path)
+        data = read_data(record, list(model.input_names), list(model.output_names), model.Ts)
+        comparison = compare(model, data, x0)
+    except (MoliError, OSError) as exc:
+        return {**row, "status": "failed", "error": f"{type(exc).__name__}: {exc}"}
+    now = float(np.mean(comparison.fit))
+    before = model.info.get("validation_fit")
+    drop = None if before is None else float(before) - now
+    status = "dropped" if drop is not None and drop > max_drop else "ok"
+    return {**row, "fit_before": before, "fit_now": now, "drop": drop, "vaf_now": comparison.mean_vaf,
+            "status": status}
