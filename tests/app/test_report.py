@@ -38,7 +38,8 @@ def written(result, tmp_path_factory) -> tuple[str, object, object]:
 def test_report_files_exist_and_html_embeds_every_png(written, result):
     page, folder, data_file = written
     embedded = re.findall(r'src="data:image/png;base64,([^"]+)"', page)
-    names = ["vaf_by_order", "validation", "poles", "step_responses", "magnitude", "residuals"]
+    names = ["vaf_by_order", "validation", "poles", "step_responses", "magnitude", "singular_values",
+             "residuals"]
     assert len(embedded) == len(names)
     for name, data in zip(names, embedded):
         png = (folder / f"{name}.png").read_bytes()

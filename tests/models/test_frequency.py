@@ -104,3 +104,14 @@ def test_bode_figure_draws_every_pair():
     fig = figures.bode_magnitude(model, data)
     assert len(fig.axes) == model.p * model.m
     assert len(fig.axes[0].lines) == 2               # model and spectral estimate
+
+
+def test_singular_value_figure_is_the_svd_of_the_response():
+    model = moli.example_plant()
+    fig = figures.singular_values(model, moli.example_data(N=1500, seed=5), points=40)
+    omega, largest = fig.axes[0].lines[0].get_data()
+    # an independent computation of the largest gain over input directions
+    H = np.array([model.C @ np.linalg.solve(np.exp(1j * w) * np.eye(model.n) - model.A, model.B) + model.D
+                  for w in omega])
+    np.testing.assert_allclose(largest, [np.linalg.norm(h, 2) for h in H], rtol=1e-10)  # round-off
+    assert len(fig.axes[0].lines) == 2 * min(model.p, model.m)   # model and spectral estimate

@@ -19,6 +19,7 @@ from ..validation.comparison import Comparison
 from ..validation.frequency import empirical_frequency_response
 
 __all__ = [
+    "singular_values",
     "vaf_by_order", "measured_vs_simulated", "poles", "step_responses", "settling_samples",
     "magnitude_responses",
 ]
@@ -231,6 +232,46 @@ def bode_magnitude(model: StateSpaceModel, data: IOData | None = None, nperseg: 
             ax.grid(alpha=0.3, which="both")
     if empirical is not None:
         fig.legend(*axes[0, 0].get_legend_handles_labels(), loc="outside upper left", fontsize=8, ncols=2)
+    return fig
+
+
+def singular_values(model: StateSpaceModel, data: IOData | None = None, nperseg: int | None = None,
+                    points: int = 200) -> Figure:
+    """Singular values of the frequency response against frequency: the MIMO gain envelope.
+
+    The largest and smallest gain over all input directions at each frequency, from
+    three decades below the Nyquist frequency up to it, as lines; with ``data``, the
+    singular values of :func:`moli.empirical_frequency_response` as dots.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+    data : IOData, optional
+        A record of the same channels (raw or centred).
+    nperseg : int, optional
+        Welch segment length of the empirical estimate.
+    points : int, default 200
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    nyquist = np.pi / model.Ts
+    omega = np.logspace(np.log10(nyquist) - DECADES, np.log10(nyquist), points)
+    sv = np.linalg.svd(model.frequency_response(omega), compute_uv=False)       # (F, min(p, m))
+    fig = _figure(5.5, 3.4)
+    ax = fig.subplots()
+    ax.loglog(omega, sv, color="C0", linewidth=1.2)
+    ax.lines[0].set_label("model")
+    if data is not None:
+        empirical = empirical_frequency_response(data, nperseg=nperseg)
+        keep = empirical.omega > 0
+        points_sv = np.linalg.svd(empirical.response[keep], compute_uv=False)
+        ax.loglog(empirical.omega[keep], points_sv, ".", color="0.4", markersize=3)
+        ax.lines[sv.shape[1]].set_label("spectral estimate")
+        ax.legend(fontsize=8)
+    ax.set(xlabel="frequency (rad per time unit)", ylabel="singular values of H")
+    ax.grid(alpha=0.3, which="both")
     return fig
 
 

@@ -233,6 +233,9 @@ def write_report(
                            "Unit-step responses from each input to each output (deviations)" + bands),
         "magnitude": (figures.bode_magnitude(model, validation),
                       "Gain of each channel against frequency, up to the Nyquist frequency" + bands),
+        "singular_values": (figures.singular_values(model, validation),
+                            "Singular values of the frequency response (largest and smallest gain "
+                            "over input directions) beside those of the spectral estimate."),
     }
     # at most the default 25 lags, fewer on a short validation record
     lags = min(25, validation.N // SAMPLES_PER_LAG - 1)
