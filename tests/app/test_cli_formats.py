@@ -159,8 +159,8 @@ BAD = {
     "garbage.npz": (garbage_npz, "is a zip archive but not a NumPy .npz"),
     "cut.npz": (write_bytes(b"PK\x03\x04\x14\x00"), "cannot read"),
     "garbage.parquet": (write_bytes(b"PAR1\x00\x01PAR1"), "as a Parquet file"),
-    "empty cell.csv": (write_bytes(b"Ventil \xc3\xb6ffnung,pump,Temp \xc2\xb0C,level\n1,2,3,4\n1,,3,4\n"),
-                       "line 3, column 'pump': no value"),
+    "empty column.csv": (write_bytes(b"Ventil \xc3\xb6ffnung,pump,Temp \xc2\xb0C,level\n1,,3,4\n1,,3,4\n"),
+                         "column 'pump': no value in any row"),
     "text cell.csv": (write_bytes(b"Ventil \xc3\xb6ffnung,pump,Temp \xc2\xb0C,level\n1,2,3,4\n1,2,x,4\n"),
                       "line 3, column 'Temp \u00b0C': 'x' is not a number"),
 }
