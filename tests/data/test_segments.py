@@ -165,3 +165,14 @@ def test_a_dataframe_round_trip_keeps_the_boundaries():
     back = moli.from_dataframe(moli.to_dataframe(data), inputs=["u1"], outputs=["y1", "y2"])
     assert back.bounds == data.bounds and back.Ts == data.Ts
     np.testing.assert_array_equal(back.y, data.y)
+
+
+def test_the_excitation_check_takes_no_window_across_a_boundary():
+    # two experiments that each hold the input still: one step between them, if the
+    # boundary were ignored, would pass for an input exciting two lags
+    held = [moli.IOData(np.random.default_rng(k).standard_normal(100), np.full(100, level))
+            for k, level in enumerate((1.0, -1.0))]
+    merged = moli.merge(held)
+    joined = moli.IOData(merged.y, merged.u)
+    assert "excitation" in [issue.kind for issue in moli.check_data(merged, nmax=1)]
+    assert "excitation" not in [issue.kind for issue in moli.check_data(joined, nmax=1)]

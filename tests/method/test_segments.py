@@ -121,6 +121,27 @@ def test_search_factors_give_the_stacked_rows_models_and_j_restarts_each_segment
         assert J[r] == pytest.approx(expected, rel=1e-10)
 
 
+def test_j_fits_initial_states_and_trends_per_segment():
+    a, b = _siso_records(12)
+    merged = moli.merge([a, b])
+    z = np.column_stack([merged.y, merged.u])
+    starts = merged.segment_starts
+    model = moli.StateSpaceModel([[0.7]], [[0.6]], [[1.0]])
+    matrices = (model.A[None], model.B[None], model.C[None])
+    y = merged.y[:, 0]
+    # x0 = "estimate": each segment's initial state by least squares (moli.compare's own fit)
+    yhat = np.concatenate([moli.compare(model, part, x0="estimate").yhat[:, 0] for part in merged.segments])
+    scorer = FilterScorer(z, (1,), 1.0, 2.0, x0="estimate", starts=starts)
+    assert scorer.criterion(matrices)[0] == pytest.approx(np.var(y - yhat) / np.var(y), rel=1e-8)
+    # trend degree 1: a straight line removed from each segment's error on its own
+    error = y - np.concatenate([model.simulate(part.u)[:, 0] for part in merged.segments])
+    for lo, hi in merged.bounds:
+        k = np.arange(hi - lo)
+        error[lo:hi] -= np.polyval(np.polyfit(k, error[lo:hi], 1), k)
+    scorer = FilterScorer(z, (1,), 1.0, 2.0, trend_degree=1, starts=starts)
+    assert scorer.criterion(matrices)[0] == pytest.approx(error @ error / (y.size * np.var(y)), rel=1e-8)
+
+
 def test_compare_and_predict_run_each_segment_from_its_own_start():
     a, b = _siso_records(8)
     merged = moli.merge([a, b])
