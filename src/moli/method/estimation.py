@@ -354,4 +354,3 @@ def _attach_covariance(
             indices, model.C, model.D, np.zeros(p, bool), breaks=row_breaks(starts, z.shape[0], skip))
     except DataError as exc:
         model.info["covariance"] = {"method": "none", "reason": str(exc)}
-
