@@ -209,3 +209,30 @@ def test_covariance_takes_rows_of_every_segment():
 def test_analyses_through_time_refuse_several_segments(analysis):
     with pytest.raises(moli.DataError, match="needs a continuous record, and this one has 2 segments"):
         analysis(moli.merge(list(_siso_records(10))))
+
+
+def test_the_long_run_covariance_takes_no_lag_across_a_boundary():
+    from moli.method.covariance import sandwich_factor
+
+    rng = np.random.default_rng(13)
+    phis = [rng.standard_normal((90, 3)), rng.standard_normal((90, 2))]
+    noise = np.convolve(rng.standard_normal(92), [1.0, 0.8, 0.5], mode="valid")   # coloured
+    targets = np.column_stack([phis[0] @ [1.0, -2.0, 0.5] + noise, phis[1] @ [0.3, 0.2] + noise])
+    factor, _, width = sandwich_factor(phis, targets, breaks=[40])
+    # the Newey-West sum of each segment's own scores (rows 0-39, 40-89), added
+    scores = np.concatenate([phi * (t - phi @ np.linalg.lstsq(phi, t, rcond=None)[0])[:, None]
+                             for phi, t in zip(phis, targets.T)], axis=1)
+
+    def bartlett(s):
+        n = s.shape[0]
+        return sum((1 - abs(h) / width) * s[max(h, 0) : n + min(h, 0)].T @ s[max(-h, 0) : n - max(h, 0)]
+                   for h in range(-width + 1, width))
+
+    middle = bartlett(scores[:40]) + bartlett(scores[40:])
+    bread = np.zeros((5, 5))
+    bread[:3, :3] = np.linalg.inv(phis[0].T @ phis[0]) * np.sqrt(90 / 87)
+    bread[3:, 3:] = np.linalg.inv(phis[1].T @ phis[1]) * np.sqrt(90 / 88)
+    assert width > 1                                   # lags that could have crossed
+    np.testing.assert_allclose(factor.T @ factor, bread @ middle @ bread, rtol=1e-9, atol=1e-15)
+    whole, _, _ = sandwich_factor(phis, targets)
+    assert not np.allclose(whole.T @ whole, factor.T @ factor, rtol=1e-6)
