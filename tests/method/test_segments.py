@@ -117,7 +117,7 @@ def test_merged_estimate_is_the_least_squares_of_each_segments_own_rows():
 
 def test_search_factors_give_the_stacked_rows_models_and_j_restarts_each_segment():
     a, b = _siso_records(6)
-    merged = moli.merge([a, b])
+    merged = moli.merge([a, b, a[:150]])    # three segments: two folds of the factors
     z = np.column_stack([merged.y, merged.u])
     starts = merged.segment_starts
     etas = np.array([[0.3, 0.7], [1.0, 1.1], [0.6, 0.9]])

@@ -116,11 +116,15 @@ class RegressionCache:
                 by_degree.setdefault(a.size - 1, []).append((k, a))
             bounds = tuple(zip(self.starts, (*self.starts[1:], self.z.shape[0])))
             for nbar, items in by_degree.items():
-                # each segment from a zero filter state; those too short to give a row add nothing
-                per_segment = [_record_factors(self.z[a:b], [alpha for _, alpha in items], self.extra)
-                               for a, b in bounds if b - a > nbar]
-                for i, (k, _) in enumerate(items):
-                    self._factors[k] = combine_factors([factors[i] for factors in per_segment])
+                # each segment from a zero filter state, folded into the factors of the
+                # segments before it; those too short to give a row add nothing
+                combined: list[np.ndarray] = []
+                for a, b in bounds:
+                    if b - a > nbar:
+                        factors = _record_factors(self.z[a:b], [alpha for _, alpha in items], self.extra)
+                        combined = [combine_factors([r, f]) for r, f in zip(combined, factors)] or factors
+                for (k, _), factor in zip(items, combined):
+                    self._factors[k] = factor
                 self.factorizations += len(items)
         return [self._factors[k] for k in keys]
 
