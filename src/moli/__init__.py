@@ -25,7 +25,7 @@ from .errors import (
 
 # public name -> the subpackage that defines it
 _HOMES = {
-    "IOData": "data", "read_data": "data", "from_dataframe": "data", "to_dataframe": "data", "load_daisy": "data", "list_daisy": "data",
+    "IOData": "data", "merge": "data", "read_data": "data", "from_dataframe": "data", "to_dataframe": "data", "load_daisy": "data", "list_daisy": "data",
     "DatasetChecksumError": "data", "DatasetUnavailableError": "data",
     "random_binary_signal": "data", "check_data": "data",
     "StateSpaceModel": "models", "ContinuousModel": "models", "load_model": "models",
@@ -56,7 +56,7 @@ if TYPE_CHECKING:  # what the lazy names are, for type checkers and IDEs
     from . import app, control, data, method, models, streaming, systems, validation
     from .data import (
         DatasetChecksumError, DatasetUnavailableError, IOData, from_dataframe, list_daisy,
-        load_daisy, random_binary_signal, read_data, to_dataframe,
+        load_daisy, merge, random_binary_signal, read_data, to_dataframe,
     )
     from .method import (
         FleetResult, IdentificationResult, IdentifyOptions, PathStep, divisor, divisors, estimate,

@@ -141,6 +141,28 @@ def test_fit_warns_of_gaps_with_their_place_and_keeps_going(tmp_path):
             "line 102 (sample 100): t = 49.5 s to 51 s, 2 samples missing" in done.stderr)
 
 
+def test_fit_takes_empty_cells_as_gaps_between_segments(tmp_path):
+    frame = columns(seconds())
+    frame.loc[90:95, OUTPUTS[0]] = np.nan        # a sensor out for six samples
+    frame.loc[150, INPUTS[1]] = np.nan           # one input sample not logged
+    path = tmp_path / "gaps.csv"
+    path.write_text(text(frame, ",", ".").replace(",nan,", ",,").replace("nan", ""))
+    out, report = tmp_path / "model.json", tmp_path / "report"
+    done = run("fit", str(path), *NAMED, "--nmax", "4", "--out", str(out), "--report", str(report))
+    assert done.exit_code == 0, done.output + done.stderr
+    assert (report / "report.html").stat().st_size > 1000
+    model = moli.load_model(out)
+    assert model.Ts == pytest.approx(TS, rel=1e-12)    # the time column's 0.5 s steps, gaps or not
+    assert (model.input_names, model.output_names) == (INPUTS, OUTPUTS)
+    data = moli.read_data(path, INPUTS, OUTPUTS)
+    assert data.bounds == ((0, 90), (90, 144), (144, 293))   # samples 90-95 and 150 removed
+    expected = moli.identify(*data.split(0.7), nmax=4).model
+    np.testing.assert_array_equal(model.A, expected.A)
+    # as for the complete files above: 1 % noise, and each segment's start from rest
+    # costs the simulation a transient of a few samples only
+    assert min(model.info["validation_vaf"]) > 95.0
+
+
 def garbage_npz(path: Path) -> Path:
     with zipfile.ZipFile(path, "w") as archive:
         archive.writestr("data.txt", "1,2,3")
@@ -159,8 +181,8 @@ BAD = {
     "garbage.npz": (garbage_npz, "is a zip archive but not a NumPy .npz"),
     "cut.npz": (write_bytes(b"PK\x03\x04\x14\x00"), "cannot read"),
     "garbage.parquet": (write_bytes(b"PAR1\x00\x01PAR1"), "as a Parquet file"),
-    "empty cell.csv": (write_bytes(b"Ventil \xc3\xb6ffnung,pump,Temp \xc2\xb0C,level\n1,2,3,4\n1,,3,4\n"),
-                       "line 3, column 'pump': no value"),
+    "empty column.csv": (write_bytes(b"Ventil \xc3\xb6ffnung,pump,Temp \xc2\xb0C,level\n1,,3,4\n1,,3,4\n"),
+                         "column 'pump': no value in any row"),
     "text cell.csv": (write_bytes(b"Ventil \xc3\xb6ffnung,pump,Temp \xc2\xb0C,level\n1,2,3,4\n1,2,x,4\n"),
                       "line 3, column 'Temp \u00b0C': 'x' is not a number"),
 }

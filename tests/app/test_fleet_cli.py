@@ -32,7 +32,7 @@ def plant(tmp_path: Path) -> Path:
     folder.mkdir()
     for k in range(3):
         moli.to_dataframe(moli.example_data(N=400, seed=k)).to_csv(folder / f"loop{k}.csv")
-    (folder / "broken.csv").write_text("time,u1,u2,u3,y1,y2,y3\n0,1,2,3,4,5,6\n1,1,2,3,n/a,5,6\n")
+    (folder / "broken.csv").write_text("time,u1,u2,u3,y1,y2,y3\n0,1,2,3,4,5,6\n1,1,2,3,oops,5,6\n")
     return folder
 
 

@@ -24,8 +24,9 @@ def test_shapes_names_and_repr():
     "y, u, message",
     [
         (np.zeros(5), np.zeros(6), "same number of samples"),
-        (np.array([0.0, np.nan, 1.0]), np.zeros(3), "NaN or inf"),
-        (np.zeros(3), np.array([0.0, np.inf, 1.0]), "NaN or inf"),
+        (np.array([0.0, np.inf, 1.0]), np.zeros(3), "contains inf"),
+        (np.zeros(3), np.array([0.0, -np.inf, 1.0]), "contains inf"),
+        (np.full(3, np.nan), np.zeros(3), "every one of the 3 samples"),
         (np.zeros((2, 2, 2)), np.zeros(2), "1-D"),
         (["a", "b"], np.zeros(2), "numeric"),
     ],

@@ -56,7 +56,7 @@ def test_stated_period_without_time_stamps_and_default_is_one(tmp_path):
         ("", "empty"),
         ("u1,y1\n", "no data rows"),
         ("u1,y1\n1,2\n3,abc\n", "line 3, column 'y1': 'abc' is not a number"),
-        ("u1,y1\n1,2\n3\n", "line 3, column 'y1': no value"),
+        ("u1,y1\n1,\n3,\n", "column 'y1': no value in any row"),
         ("time,u1,y1\n0,1,2\n1,3,4\n0.5,6,7\n", "line 4, column 'time': time does not increase"),
         ("u1,y2\n1,2\n", "no column 'y1'; columns: 'u1', 'y2'"),
     ],

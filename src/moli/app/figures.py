@@ -96,7 +96,7 @@ def measured_vs_simulated(data: IOData, comparison: Comparison) -> Figure:
     Parameters
     ----------
     data : IOData
-        The record the model was simulated on.
+        The record the model was simulated on; dotted lines mark where its segments start.
     comparison : Comparison
         Result of :func:`moli.compare` on ``data``.
 
@@ -110,6 +110,8 @@ def measured_vs_simulated(data: IOData, comparison: Comparison) -> Figure:
     for i, ax in enumerate(axes):
         ax.plot(t, data.y[:, i], color="0.2", linewidth=1.0, label="measured")
         ax.plot(t, comparison.yhat[:, i], color="C1", linewidth=1.0, label="simulated")
+        for start in data.segment_starts[1:]:   # each segment is simulated from its own start
+            ax.axvline(t[start], color="0.5", linewidth=0.8, linestyle=":")
         ax.set_ylabel(data.output_names[i])
         ax.set_title(f"VAF {comparison.vaf[i]:.1f} %, fit {comparison.fit[i]:.1f} %",
                      fontsize=9, loc="right")

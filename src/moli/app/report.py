@@ -19,6 +19,7 @@ from matplotlib.figure import Figure
 from . import figures
 from .._version import __version__
 from ..data.files import file_sha256
+from ..data.iodata import longest_segment
 from ..method.identification import IdentificationResult
 from ..method.search import PathStep
 from ..validation.comparison import compare
@@ -220,6 +221,8 @@ def write_report(
     out.mkdir(parents=True, exist_ok=True)
     model, validation = result.model, result.validation
     comparison = compare(model, validation, result.options.x0)
+    # spectra and residual correlations run through time: on the longest stretch without a gap
+    continuous = longest_segment(validation)
     bands = (f", shaded: pointwise {figures.BAND_CONFIDENCE:.0%} confidence band of the estimate "
              "(docs/uncertainty.md)." if model.cov_factor is not None else ".")
     drawn = {
@@ -231,15 +234,17 @@ def write_report(
         "poles": (figures.poles(model), "Poles of the selected model and the unit circle."),
         "step_responses": (figures.step_responses(model, figures.settling_samples(model)),
                            "Unit-step responses from each input to each output (deviations)" + bands),
-        "magnitude": (figures.bode_magnitude(model, validation),
+        "magnitude": (figures.bode_magnitude(model, continuous),
                       "Gain of each channel against frequency, up to the Nyquist frequency" + bands),
-        "singular_values": (figures.singular_values(model, validation),
+        "singular_values": (figures.singular_values(model, continuous),
                             "Singular values of the frequency response (largest and smallest gain "
-                            "over input directions) beside those of the spectral estimate."),
+                            "over input directions) beside those of the spectral estimate"
+                            + (f" (from the longest validation segment, {continuous.N} samples)."
+                               if validation.n_segments > 1 else ".")),
     }
     # at most the default 25 lags, fewer on a short validation record
-    lags = min(25, validation.N // SAMPLES_PER_LAG - 1)
-    analysis = residual_analysis(model, validation, lags=lags) if lags >= 1 else None
+    lags = min(25, continuous.N // SAMPLES_PER_LAG - 1)
+    analysis = residual_analysis(model, continuous, lags=lags) if lags >= 1 else None
     if analysis is not None:
         drawn["residuals"] = (analysis.plot(), f"Residual correlations on the validation record "
                               f"with their {analysis.confidence:.0%} bands: autocorrelation, then "

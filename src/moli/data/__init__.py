@@ -6,7 +6,7 @@ from .daisy import (
     load_daisy,
 )
 from .files import file_sha256, fingerprint, read_data, to_dataframe
-from .iodata import IOData
+from .iodata import IOData, merge
 from .quality import QualityIssue, check_data, screen
 from .signals import SignalError, random_binary_signal
 from .tables import from_columns, from_dataframe
@@ -14,7 +14,7 @@ from .text_files import detect_encoding
 from .timing import SamplingGap, find_gaps
 
 __all__ = [
-    "IOData", "read_data", "from_columns", "from_dataframe", "to_dataframe", "fingerprint",
+    "IOData", "merge", "read_data", "from_columns", "from_dataframe", "to_dataframe", "fingerprint",
     "file_sha256", "detect_encoding", "SamplingGap", "find_gaps",
     "DaisyInfo", "DatasetChecksumError", "DatasetUnavailableError", "daisy_path", "daisy_url",
     "list_daisy", "load_daisy", "SignalError", "random_binary_signal", "QualityIssue", "check_data",

@@ -183,6 +183,8 @@ def to_dataframe(data: IOData) -> "pd.DataFrame":
     -------
     pandas.DataFrame
         Columns ``data.output_names + data.input_names``; index ``time`` (``k * Ts``).
+        A record of several segments gets a row of NaN between two segments, which
+        :func:`from_dataframe` and :func:`read_data` read back as the boundary.
 
     Examples
     --------
@@ -193,7 +195,13 @@ def to_dataframe(data: IOData) -> "pd.DataFrame":
     import pandas as pd
 
     values = np.concatenate([data.y, data.u], axis=1)
-    index = pd.Index(data.time(), name="time")
+    time = data.time()
+    if data.n_segments > 1:
+        # a missing sample at each boundary; the times after it move on by one period
+        breaks = list(data.segment_starts[1:])
+        values = np.insert(values, breaks, np.nan, axis=0)
+        time = np.arange(values.shape[0]) * data.Ts
+    index = pd.Index(time, name="time")
     return pd.DataFrame(values, index=index, columns=[*data.output_names, *data.input_names])
 
 
@@ -201,7 +209,8 @@ def fingerprint(data: IOData) -> str:
     """SHA-256 of a record's outputs, inputs and sample count, as hex.
 
     Two records get the same fingerprint exactly when they hold the same float64
-    values in the same shapes; it identifies the data a model was estimated on.
+    values in the same shapes and segments; it identifies the data a model was
+    estimated on.
 
     Parameters
     ----------
@@ -221,4 +230,6 @@ def fingerprint(data: IOData) -> str:
     digest.update(np.array([data.N, data.p, data.m], dtype=np.int64).tobytes())
     digest.update(np.ascontiguousarray(data.y, dtype=np.float64).tobytes())
     digest.update(np.ascontiguousarray(data.u, dtype=np.float64).tobytes())
+    if data.n_segments > 1:  # a record of one segment keeps the fingerprint it always had
+        digest.update(np.array(data.segment_starts, dtype=np.int64).tobytes())
     return digest.hexdigest()

@@ -2,20 +2,27 @@
 
 from __future__ import annotations
 
+import math
 from typing import Sequence
 
 import numpy as np
 
 from ..errors import DataError
+from .segments import check_starts, remove_missing_rows, segment_bounds, starts_after_cut, starts_in_slice
 
-__all__ = ["as_signal", "stack_signals", "IOData"]
+__all__ = ["as_signal", "stack_signals", "IOData", "merge", "longest_segment", "require_one_segment"]
+
+# Relative difference of two sampling periods still taken as the same when records are
+# merged: room for a period written with fewer digits, none for a real change.
+TS_TOLERANCE = 1e-6
 
 
-def as_signal(name: str, values: object, channels: int | None = None) -> np.ndarray:
+def as_signal(name: str, values: object, channels: int | None = None, missing: bool = False) -> np.ndarray:
     """Copy ``values`` into a finite float array of shape (N, channels), time along axis 0.
 
     A 1-D array is one channel. Raises :class:`DataError` naming ``name`` and the
     expected shape when the values are not numeric, not finite or not of that shape.
+    With ``missing``, NaN (a missing sample) is let through; inf never is.
     """
     try:
         array = np.array(values, dtype=float, copy=True)
@@ -29,11 +36,12 @@ def as_signal(name: str, values: object, channels: int | None = None) -> np.ndar
             f"{name} must be 1-D (one channel) or 2-D with shape {expected}, "
             f"time along axis 0; got an array of shape {array.shape}"
         )
-    if not np.all(np.isfinite(array)):
-        bad = np.argwhere(~np.isfinite(array))[0]
+    bad_values = np.isinf(array) if missing else ~np.isfinite(array)
+    if bad_values.any():
+        bad = np.argwhere(bad_values)[0]
         raise DataError(
-            f"{name} contains NaN or inf (first at sample {bad[0]}, channel {bad[1]}); "
-            "remove or interpolate those samples first"
+            f"{name} contains {'inf' if missing else 'NaN or inf'} (first at sample {bad[0]}, "
+            f"channel {bad[1]}); remove or interpolate those samples first"
         )
     return array
 
@@ -71,11 +79,19 @@ class IOData:
         Sampling period (any time unit; filter frequencies are in rad per that unit).
     output_names, input_names : sequence of str, optional
         Channel names; default ``y1, y2, ...`` and ``u1, u2, ...``.
+    segment_starts : sequence of int, optional
+        First sample of each segment when the arrays hold several experiments (or the
+        stretches between gaps) end to end: increasing, the first 0. Default: one
+        segment.
 
     Notes
     -----
     The arrays are copied: later changes to the caller's arrays do not reach the
     container, and nothing moli does modifies the caller's arrays.
+
+    A NaN marks a missing sample: every sample with a NaN in any channel is removed,
+    and the samples after it start a new segment. The identification restarts its
+    filters and simulations at each segment (docs/data.md, "Gaps and experiments").
 
     Examples
     --------
@@ -95,9 +111,11 @@ class IOData:
         Ts: float = 1.0,
         output_names: Sequence[str] | None = None,
         input_names: Sequence[str] | None = None,
+        *,
+        segment_starts: Sequence[int] | None = None,
     ) -> None:
-        y_arr = as_signal("y", y)
-        u_arr = as_signal("u", u)
+        y_arr = as_signal("y", y, missing=True)
+        u_arr = as_signal("u", u, missing=True)
         if y_arr.shape[0] != u_arr.shape[0]:
             raise DataError(
                 f"y and u must have the same number of samples along axis 0: "
@@ -106,6 +124,10 @@ class IOData:
             )
         if not (np.isfinite(Ts) and Ts > 0):
             raise DataError(f"Ts must be a positive finite number, got {Ts!r}")
+        if y_arr.shape[0] == 0:
+            raise DataError("y and u hold no samples")
+        starts = (0,) if segment_starts is None else check_starts(segment_starts, y_arr.shape[0])
+        y_arr, u_arr, self._starts = remove_missing_rows(y_arr, u_arr, starts)
         self._y = y_arr
         self._u = u_arr
         self._y.flags.writeable = False
@@ -141,29 +163,80 @@ class IOData:
         """Number of inputs."""
         return self._u.shape[1]
 
+    @property
+    def n_segments(self) -> int:
+        """Number of segments (experiments, or stretches between gaps)."""
+        return len(self._starts)
+
+    @property
+    def segment_starts(self) -> tuple[int, ...]:
+        """First sample of each segment in the concatenated record (the first is 0)."""
+        return self._starts
+
+    @property
+    def bounds(self) -> tuple[tuple[int, int], ...]:
+        """``(start, stop)`` sample indices of each segment in the concatenated record."""
+        return segment_bounds(self._starts, self.N)
+
+    @property
+    def segments(self) -> tuple["IOData", ...]:
+        """Each segment as a record of its own (copies; offsets kept)."""
+        return tuple(self[start:stop] for start, stop in self.bounds)
+
     def __len__(self) -> int:
         return self.N
 
     def __repr__(self) -> str:
         return (
             f"IOData(N={self.N}, p={self.p}, m={self.m}, Ts={self.Ts:g}, "
-            f"outputs={list(self.output_names)}, inputs={list(self.input_names)})"
+            f"outputs={list(self.output_names)}, inputs={list(self.input_names)}"
+            + (f", segments={self.n_segments}" if self.n_segments > 1 else "") + ")"
         )
 
-    def _with(self, y: np.ndarray, u: np.ndarray, y_offset: np.ndarray, u_offset: np.ndarray) -> "IOData":
-        new = IOData(y, u, self.Ts, self.output_names, self.input_names)
+    def _with(
+        self, y: np.ndarray, u: np.ndarray, y_offset: np.ndarray, u_offset: np.ndarray,
+        starts: tuple[int, ...] | None = None,
+    ) -> "IOData":
+        new = IOData(y, u, self.Ts, self.output_names, self.input_names,
+                     segment_starts=self._starts if starts is None else starts)
         new.y_offset = np.array(y_offset, dtype=float)
         new.u_offset = np.array(u_offset, dtype=float)
         return new
 
     def __getitem__(self, index: slice) -> "IOData":
-        """Samples selected by a slice, e.g. ``data[100:600]``."""
+        """Samples selected by a slice, e.g. ``data[100:600]``; segment boundaries inside it are kept."""
         if not isinstance(index, slice):
             raise DataError("IOData is indexed by a slice of samples, e.g. data[0:500]")
+        if self.n_segments > 1 and index.step not in (None, 1):
+            raise DataError(f"a record of {self.n_segments} segments is sliced with step 1 only, got {index}")
         y, u = self._y[index], self._u[index]
         if y.shape[0] == 0:
             raise DataError(f"slice {index} selects no samples of {self.N}")
-        return self._with(y, u, self.y_offset, self.u_offset)
+        starts = starts_in_slice(self._starts, self.N, index) if self.n_segments > 1 else (0,)
+        return self._with(y, u, self.y_offset, self.u_offset, starts)
+
+    def drop(self, start: int, stop: int) -> "IOData":
+        """The record without samples ``start..stop-1``: the two sides become separate segments.
+
+        Parameters
+        ----------
+        start, stop : int
+            Sample indices of the concatenated record, ``0 <= start < stop <= N``;
+            at least one sample must remain.
+
+        Returns
+        -------
+        IOData
+        """
+        for name, value in (("start", start), ("stop", stop)):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)):
+                raise DataError(f"drop: {name} must be a sample index (an integer), got {value!r}")
+        if not 0 <= start < stop <= self.N or (start, stop) == (0, self.N):
+            raise DataError(f"drop needs 0 <= start < stop <= N = {self.N} and at least one sample "
+                            f"left, got start={start}, stop={stop}")
+        kept = np.r_[0:start, stop : self.N]
+        return self._with(self._y[kept], self._u[kept], self.y_offset, self.u_offset,
+                          starts_after_cut(self._starts, self.N, int(start), int(stop)))
 
     def split(self, at: int | float) -> tuple["IOData", "IOData"]:
         """Split into a head and a tail.
@@ -188,7 +261,7 @@ class IOData:
         return self[:at], self[at:]
 
     def time(self) -> np.ndarray:
-        """Sample times ``k * Ts``, shape (N,)."""
+        """Sample times ``k * Ts``, shape (N,), counted through the segments end to end."""
         return np.arange(self.N) * self.Ts
 
     def remove_means(self, y_offset: np.ndarray | None = None, u_offset: np.ndarray | None = None) -> "IOData":
@@ -198,7 +271,8 @@ class IOData:
         ----------
         y_offset, u_offset : array_like, optional
             Offsets to subtract, e.g. the means of an estimation record applied to a
-            validation record. Default: this record's own means.
+            validation record. Default: this record's own means, over all its segments
+            together (one operating point).
 
         Returns
         -------
@@ -211,3 +285,77 @@ class IOData:
         if dy.shape != (self.p,) or du.shape != (self.m,):
             raise DataError(f"offsets must have shapes ({self.p},) and ({self.m},)")
         return self._with(self._y - dy, self._u - du, self.y_offset + dy, self.u_offset + du)
+
+
+def merge(records: Sequence[IOData]) -> IOData:
+    """One record whose segments are the given records' segments, in order.
+
+    Parameters
+    ----------
+    records : sequence of IOData
+        Experiments on the same plant: the same output and input names (so the same
+        channel counts), sampling period (relative tolerance 1e-6) and offsets.
+
+    Returns
+    -------
+    IOData
+        Its ``Ts`` and offsets are the first record's.
+
+    Raises
+    ------
+    DataError
+        No records, something that is not an :class:`IOData`, or a record whose
+        channels, sampling period or offsets differ from the first one's (named by
+        its position).
+
+    Examples
+    --------
+    >>> import numpy as np, moli
+    >>> a = moli.IOData(np.zeros(50), np.ones(50))
+    >>> both = moli.merge([a, a[:30]])
+    >>> both.N, both.n_segments, both.bounds
+    (80, 2, ((0, 50), (50, 80)))
+    """
+    if isinstance(records, IOData) or not isinstance(records, Sequence) or not records:
+        raise DataError("merge takes a non-empty list of IOData records")
+    first = records[0]
+    for i, record in enumerate(records):
+        if not isinstance(record, IOData):
+            raise DataError(f"merge: record {i} is a {type(record).__name__}, not an IOData")
+        differs = []
+        if (record.p, record.m) != (first.p, first.m):
+            differs.append(f"{record.p} outputs and {record.m} inputs, record 0 has {first.p} and {first.m}")
+        elif (record.output_names, record.input_names) != (first.output_names, first.input_names):
+            differs.append(f"channels {list(record.output_names)}, {list(record.input_names)}, record 0 has "
+                           f"{list(first.output_names)}, {list(first.input_names)}")
+        if not math.isclose(record.Ts, first.Ts, rel_tol=TS_TOLERANCE):
+            differs.append(f"Ts = {record.Ts:g}, record 0 has Ts = {first.Ts:g}")
+        if not (np.array_equal(record.y_offset, first.y_offset) and np.array_equal(record.u_offset, first.u_offset)):
+            differs.append("other offsets removed than record 0 (merge the raw records, then remove the means)")
+        if differs:
+            raise DataError(f"merge: record {i} has " + "; ".join(differs))
+    starts, total = [], 0
+    for record in records:
+        starts.extend(total + s for s, _ in record.bounds)
+        total += record.N
+    merged = IOData(np.concatenate([r.y for r in records]), np.concatenate([r.u for r in records]), first.Ts,
+                    first.output_names, first.input_names, segment_starts=starts)
+    merged.y_offset, merged.u_offset = first.y_offset.copy(), first.u_offset.copy()
+    return merged
+
+
+def longest_segment(data: IOData) -> IOData:
+    """The longest segment of ``data`` (the first of equal ones); ``data`` itself when it has one."""
+    if data.n_segments == 1:
+        return data
+    start, stop = max(data.bounds, key=lambda bound: bound[1] - bound[0])
+    return data[start:stop]
+
+
+def require_one_segment(data: IOData, what: str) -> None:
+    """Raise :class:`DataError` when ``data`` has several segments: ``what`` needs a record without gaps."""
+    if data.n_segments > 1:
+        raise DataError(
+            f"{what} needs a continuous record, and this one has {data.n_segments} segments "
+            f"(gaps or merged experiments, bounds {list(data.bounds)}); pass one of data.segments"
+        )

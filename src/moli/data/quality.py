@@ -65,24 +65,29 @@ def _constant(x: np.ndarray) -> np.ndarray:
     return np.std(x, axis=0) <= CONSTANT_SPREAD * np.where(scale > 0, scale, 1.0)
 
 
-def _exciting(u: np.ndarray, L: int) -> bool:
-    """Whether the (centred) inputs are persistently exciting of order L."""
-    N, m = u.shape
-    rows = N - L + 1
-    if rows <= L * m:
+def _exciting(u: np.ndarray, L: int, bounds: tuple[tuple[int, int], ...]) -> bool:
+    """Whether the (centred) inputs are persistently exciting of order L.
+
+    The rows of the block Hankel matrix are windows of ``L`` samples inside one
+    segment each: no window spans a boundary.
+    """
+    m = u.shape[1]
+    blocks = [np.concatenate([u[a + i : b - L + 1 + i] for i in range(L)], axis=1)
+              for a, b in bounds if b - a >= L]
+    if sum(block.shape[0] for block in blocks) <= L * m:
         return False
-    hankel = np.concatenate([u[i : i + rows] for i in range(L)], axis=1)
+    hankel = np.concatenate(blocks)
     norms = np.linalg.norm(hankel, axis=0)
     s = np.linalg.svd(hankel / np.where(norms > 0, norms, 1.0), compute_uv=False)
     return bool(s[-1] > 0 and s[0] / s[-1] <= EXCITATION_CONDITION)
 
 
-def _excitation_order(u: np.ndarray, limit: int) -> int:
+def _excitation_order(u: np.ndarray, limit: int, bounds: tuple[tuple[int, int], ...]) -> int:
     """Largest L <= limit for which the inputs are persistently exciting of order L."""
     centred = u - u.mean(axis=0)
     # exciting of order L implies every lower order: test the order needed first
     for L in range(limit, 0, -1):
-        if _exciting(centred, L):
+        if _exciting(centred, L, bounds):
             return L
     return 0
 
@@ -181,7 +186,7 @@ def check_data(data: IOData, nmax: int | None = None) -> list[QualityIssue]:
     issues += _collinear(data, ~dead_u)
     if nmax is not None and not dead_u.all():
         needed = math.ceil(nmax / data.p) + 1
-        order = _excitation_order(data.u[:, ~dead_u], needed)
+        order = _excitation_order(data.u[:, ~dead_u], needed, data.bounds)
         if order < needed:
             issues.append(QualityIssue(
                 "excitation", tuple(n for n, d in zip(data.input_names, dead_u) if not d),

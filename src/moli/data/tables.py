@@ -148,23 +148,19 @@ def _numbers(table: Table, name: str) -> np.ndarray:
     return numbers
 
 
-def _reject_missing(table: Table, names: Sequence[str], columns: Sequence[np.ndarray]) -> None:
-    """The one place that decides what a missing sample does: for now, stop the read.
+def _check_missing(table: Table, names: Sequence[str], columns: Sequence[np.ndarray]) -> None:
+    """The one place that decides what a missing sample does: it ends a segment.
 
-    IOData holds evenly sampled records without holes, so a missing sample cannot be
-    passed on; a record type that splits at missing samples would take them from here.
+    An empty or NA cell stays NaN, and :class:`IOData` removes the rows with one and
+    starts a new segment after them (docs/data.md, "Gaps and experiments"). Only a
+    channel with no value at all, or a table without one complete row, stops the read.
     """
-    holes = [(int(np.flatnonzero(np.isnan(col))[0]), name) for name, col in zip(names, columns)
-             if np.isnan(col).any()]
-    if not holes:
-        return
-    k, name = min(holes)
-    total = sum(int(np.isnan(col).sum()) for col in columns)
-    raise DataError(
-        f"{table.source}, {table.row(k)}, column {name!r}: no value (an empty or NA cell); "
-        f"{total} missing in the channels read. Missing samples are not supported yet (they "
-        "will be read as gaps that split the record): fill them in, or cut the record around them"
-    )
+    for name, col in zip(names, columns):
+        if np.isnan(col).all():
+            raise DataError(f"{table.source}, column {name!r}: no value in any row (empty or NA cells only)")
+    if np.isnan(np.column_stack(columns)).any(axis=1).all():
+        raise DataError(f"{table.source}: every row lacks a value in one of the columns {list(names)}; "
+                        "no complete sample is left")
 
 
 def _channels(table: Table, request: Request) -> tuple[tuple[str, ...], tuple[str, ...]]:
@@ -257,7 +253,7 @@ def record(table: Table, request: Request) -> IOData:
             f"{name} {len(values)}" for name, values in columns.items()))
     if lengths == {0}:
         raise DataError(f"{table.source} has no data rows")
-    _reject_missing(table, list(columns), list(columns.values()))
+    _check_missing(table, list(columns), list(columns.values()))
     clock = _clock(table, request, list(columns))
     Ts, warning = _period(table, request, clock, lengths.pop())
     u = np.column_stack([columns[name] for name in inputs])

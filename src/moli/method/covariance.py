@@ -43,15 +43,25 @@ MAX_WIDTH_SHARE = 0.25
 BLOCK_ROWS = 8192
 
 
-def _bandwidth(scores: np.ndarray) -> int:
-    """Bartlett kernel width from Andrews' (1991) AR(1) plug-in rule.
+def _separated(scores: np.ndarray, breaks: Sequence[int], gap: int) -> np.ndarray:
+    """``scores`` with ``gap`` zero rows inserted before each row of ``breaks`` (segment starts).
+
+    With ``width - 1`` zero rows between segments, no moving sum of ``width`` rows spans
+    two of them: the long-run covariance is the sum of each segment's own.
+    """
+    if not breaks or gap == 0:
+        return scores
+    return np.insert(scores, np.repeat(np.asarray(breaks), gap), 0.0, axis=0)
+
+
+def _bandwidth(scores: np.ndarray, rows: int) -> int:
+    """Bartlett kernel width from Andrews' (1991) AR(1) plug-in rule, for ``rows`` scores.
 
     Each score column is read as an AR(1) with coefficient ``rho_a``. With unit
     variances the rule's ``alpha(1)`` is ``sum 4 rho^2 / (1 - rho)^4`` over
     ``sum (1 + rho)^2 / (1 - rho)^2``, which weighs every column alike whatever its
     units; the width is ``1.1447 (alpha(1) N)^(1/3)``, rounded up.
     """
-    rows = scores.shape[0]
     lagged = np.einsum("ta,ta->a", scores[1:], scores[:-1])
     power = np.einsum("ta,ta->a", scores[:-1], scores[:-1])
     rho = np.divide(lagged, power, out=np.zeros_like(lagged), where=power > 0)
@@ -78,7 +88,9 @@ def _moving_sums(scores: np.ndarray, width: int, start: int, stop: int) -> np.nd
     return sums[width:] - sums[:-width]
 
 
-def sandwich_factor(phis: Sequence[np.ndarray], targets: np.ndarray) -> tuple[np.ndarray, list[np.ndarray], int]:
+def sandwich_factor(
+    phis: Sequence[np.ndarray], targets: np.ndarray, breaks: Sequence[int] = ()
+) -> tuple[np.ndarray, list[np.ndarray], int]:
     """Joint covariance factor of every output's least-squares parameters.
 
     Parameters
@@ -86,6 +98,9 @@ def sandwich_factor(phis: Sequence[np.ndarray], targets: np.ndarray) -> tuple[np
     phis : sequence of ndarray
         Output ``j``'s regressors, shape (N', k_j), the same rows for every output.
     targets : ndarray, shape (N', p)
+    breaks : sequence of int, default ()
+        Rows where a new segment of the record starts: the scores of two segments are
+        not correlated with each other (no lag spans a boundary).
 
     Returns
     -------
@@ -128,8 +143,10 @@ def sandwich_factor(phis: Sequence[np.ndarray], targets: np.ndarray) -> tuple[np
         thetas.append(solution / norms)
         # columns back in theta's units, and rows / (N' - k) in place of rows / N'
         solved.append((r[:k, :k], norms / math.sqrt(rows / (rows - k))))
-    width = _bandwidth(stacked)
-    total = rows + width - 1
+    # one zero row at each boundary keeps the lag-1 products inside the segments
+    width = _bandwidth(_separated(stacked, breaks, 1), rows)
+    stacked = _separated(stacked, breaks, width - 1)
+    total = stacked.shape[0] + width - 1
     meat = np.zeros((stacked.shape[1],) * 2)
     for start in range(0, total, BLOCK_ROWS):
         block = _moving_sums(stacked, width, start, min(start + BLOCK_ROWS, total))
@@ -199,15 +216,16 @@ def matrix_directions(
 
 def matrix_covariance(
     phis: Sequence[np.ndarray], targets: np.ndarray, indices: Sequence[int], C: np.ndarray, D: np.ndarray,
-    through: np.ndarray, D_y: np.ndarray | None = None,
+    through: np.ndarray, D_y: np.ndarray | None = None, breaks: Sequence[int] = (),
 ) -> tuple[np.ndarray, dict[str, object]]:
     """``cov_factor`` of a model from its least-squares problems, and the record for its ``info``.
 
     ``D_y``: the model's output injection, where the Jacobian is taken; None takes the
-    least-squares solution's (the model is that estimate). Raises :class:`DataError`
+    least-squares solution's (the model is that estimate). ``breaks``: the rows where
+    the record's segments start (:func:`sandwich_factor`). Raises :class:`DataError`
     when a problem is rank deficient.
     """
-    factor, thetas, width = sandwich_factor(phis, targets)
+    factor, thetas, width = sandwich_factor(phis, targets, breaks)
     if D_y is None:
         D_y = _observer_parts(indices, C.shape[0], D.shape[1], through, np.concatenate(thetas)[None])[0][0]
     record = {"method": "least squares, Newey-West", "kernel_width": width, "rows": targets.shape[0],

@@ -21,10 +21,11 @@ from ..errors import DataError, IllConditionedWarning, OptionError
 from .covariance import matrix_covariance
 from .filters import check_alpha, divisors
 from ..models.statespace import StateSpaceModel
-from .structure import Indices, check_indices, parameter_counts
+from .rows import check_regression_rows, check_sample_count, regression_rows, row_breaks
+from .structure import Indices, check_indices
 
 __all__ = [
-    "filtered_regressors", "output_regressors", "solve_batch", "realize", "fit_batch",
+    "filtered_regressors", "segment_filtered", "output_regressors", "solve_batch", "realize", "fit_batch",
     "check_sample_count", "estimate",
 ]
 
@@ -60,21 +61,33 @@ def filtered_regressors(z: np.ndarray, alpha_j: np.ndarray) -> np.ndarray:
     return phi.reshape(N, c * l)
 
 
+def segment_filtered(z: np.ndarray, alpha_j: np.ndarray, skip: int, starts: Sequence[int] = (0,)) -> np.ndarray:
+    """:func:`filtered_regressors` of each segment from a zero filter state, at the :func:`regression_rows`."""
+    if len(starts) == 1:
+        return filtered_regressors(z, alpha_j)[skip:]
+    stops = (*starts[1:], z.shape[0])
+    return np.concatenate([filtered_regressors(z[a:b], alpha_j)[skip:] for a, b in zip(starts, stops)
+                           if b - a > skip])
+
+
 def output_regressors(
-    z: np.ndarray, indices: Indices, alphas: Sequence[np.ndarray], through: np.ndarray | None = None
+    z: np.ndarray, indices: Indices, alphas: Sequence[np.ndarray], through: np.ndarray | None = None,
+    starts: Sequence[int] = (0,),
 ) -> list[np.ndarray]:
     """Each output's least-squares regressors, rows ``max(indices)..N-1`` (docs/method.md §3, §8).
 
     Output ``j``'s columns: :func:`filtered_regressors` with ``alphas[j]``, the earlier
     outputs ``y_i``, ``i < j``, and the current inputs when ``through[j]`` (feedthrough).
+    A record of several segments (``starts``) stacks each segment's rows.
     """
     p = len(indices)
     skip = max(indices)
+    rows = regression_rows(z, skip, starts)
     phis = []
     for j, alpha_j in enumerate(alphas):
-        parts = [filtered_regressors(z, alpha_j)[skip:], z[skip:, :j]]
+        parts = [segment_filtered(z, alpha_j, skip, starts), rows[:, :j]]
         if through is not None and through[j]:
-            parts.append(z[skip:, p:])
+            parts.append(rows[:, p:])
         phis.append(np.concatenate(parts, axis=1))
     return phis
 
@@ -207,7 +220,7 @@ def _observer_form(
 
 
 def fit_batch(
-    z: np.ndarray, indices: Indices, alphas: Sequence[Sequence[np.ndarray]]
+    z: np.ndarray, indices: Indices, alphas: Sequence[Sequence[np.ndarray]], starts: Sequence[int] = (0,)
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Estimate one model per candidate filter on the same data.
 
@@ -218,6 +231,9 @@ def fit_batch(
     indices : tuple of int
     alphas : sequence of sequences of ndarray
         ``alphas[r][j]``: divisor of output ``j`` for candidate ``r``.
+    starts : sequence of int, default (0,)
+        First sample of each segment: the filters restart there and no regressor row
+        spans a boundary (:func:`regression_rows`).
 
     Returns
     -------
@@ -235,34 +251,20 @@ def fit_batch(
     # filtered signals depend on the divisor alone: outputs and candidates that share
     # one (the same filter's divisor of the same degree) filter the data once
     filtered: dict[bytes, np.ndarray] = {}
+    rows = regression_rows(z, skip, starts)
     for j, l in enumerate(indices):
         phis = []
         for r in range(R):
             key = np.asarray(alphas[r][j], float).tobytes()
             if key not in filtered:
-                filtered[key] = filtered_regressors(z, alphas[r][j])[skip:]
-            phis.append(np.concatenate([filtered[key], z[skip:, :j]], axis=1))
+                filtered[key] = segment_filtered(z, alphas[r][j], skip, starts)
+            phis.append(np.concatenate([filtered[key], rows[:, :j]], axis=1))
         phi = np.stack(phis)
-        theta, c = solve_batch(phi, np.broadcast_to(z[skip:, j], phi.shape[:2]))
+        theta, c = solve_batch(phi, np.broadcast_to(rows[:, j], phi.shape[:2]))
         thetas.append(theta)
         cond = np.maximum(cond, c)
     A, B, C = realize(thetas, alphas, indices, m)
     return A, B, C, cond
-
-
-def check_sample_count(N: int, indices: Indices, m: int, feedthrough: bool = False) -> None:
-    """Raise :class:`DataError` unless each output's regression has more rows than unknowns.
-
-    ``feedthrough``: the ``m`` current inputs join every output's regressors.
-    """
-    need = int(parameter_counts(indices, m).max()) + (m if feedthrough else 0) + max(indices) + 1
-    if N < need:
-        raise DataError(
-            f"too few samples: the list {list(indices)} with {m} inputs"
-            + (" and a feedthrough" if feedthrough else "")
-            + f" needs at least {need} samples ({need - max(indices)} rows after the filter "
-            f"transient), got {N}"
-        )
 
 
 def estimate(
@@ -317,9 +319,10 @@ def estimate(
     idx = check_indices(indices, data.p)
     coeffs = check_alpha(alpha)
     alphas = divisors(coeffs, idx)
-    check_sample_count(data.N, idx, data.m)
+    check_regression_rows(data.bounds, idx, data.m)
     z = np.concatenate([data.y, data.u], axis=1)
-    A, B, C, cond = fit_batch(z, idx, [alphas])
+    starts = data.segment_starts
+    A, B, C, cond = fit_batch(z, idx, [alphas], starts)
     if cond[0] > COND_LIMIT:
         warnings.warn(
             f"least-squares problem for list {list(idx)} is badly conditioned "
@@ -334,17 +337,20 @@ def estimate(
         y_offset=data.y_offset, u_offset=data.u_offset,
     )
     if covariance:
-        _attach_covariance(model, z, idx, alphas)
+        _attach_covariance(model, z, idx, alphas, starts)
     model.warn_if_unstable(stacklevel=2)
     return model
 
 
-def _attach_covariance(model: StateSpaceModel, z: np.ndarray, indices: Indices, alphas: Sequence[np.ndarray]) -> None:
+def _attach_covariance(
+    model: StateSpaceModel, z: np.ndarray, indices: Indices, alphas: Sequence[np.ndarray], starts: Sequence[int]
+) -> None:
     """Give ``model`` the covariance of its matrices, or record in its ``info`` why it has none."""
     p = len(indices)
+    skip = max(indices)
     try:
         model.cov_factor, model.info["covariance"] = matrix_covariance(
-            output_regressors(z, indices, alphas), z[max(indices) :, :p], indices, model.C, model.D,
-            np.zeros(p, bool))
+            output_regressors(z, indices, alphas, None, starts), regression_rows(z, skip, starts)[:, :p],
+            indices, model.C, model.D, np.zeros(p, bool), breaks=row_breaks(starts, z.shape[0], skip))
     except DataError as exc:
         model.info["covariance"] = {"method": "none", "reason": str(exc)}

@@ -9,15 +9,15 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ..data.iodata import IOData
+from ..data.iodata import IOData, longest_segment
 from ..data.quality import screen
 from ..errors import ClosedLoopWarning, DataError, OptionError, OrderBoundWarning
-from ..models.delays import shift_inputs
 from ..models.statespace import StateSpaceModel
 from ..validation.comparison import compare, same_period
 from ..validation.delays import first_significant_lags
 from ..validation.feedback import feedback_check, usable_lags
 from .estimation import check_sample_count
+from .records import long_segments, shifted_inputs
 from .noise_model import estimate_noise_model
 from .options import IdentifyOptions
 from .refinement import MAX_RADIUS
@@ -105,8 +105,8 @@ class IdentificationResult:
         lines = [
             f"moli identification: {self.estimation.p} outputs, {self.estimation.m} inputs, "
             f"Ts = {self.estimation.Ts:g}",
-            f"estimation: {self.estimation.N} samples; validation: {self.validation.N} samples "
-            f"({self.validation_source})",
+            f"estimation: {self.estimation.N} samples{_in_segments(self.estimation)}; validation: "
+            f"{self.validation.N} samples{_in_segments(self.validation)} ({self.validation_source})",
             f"VAF: validation, simulation from {self.options.x0} initial state, percent"
             + "".join(f"; y{i + 1} = {nm}" for i, nm in enumerate(names) if nm != f"y{i + 1}"),
             f"options: tuning {opts.tuning}, s = {opts.s:g}, feedthrough {opts.feedthrough}, "
@@ -141,6 +141,9 @@ class IdentificationResult:
             lines.append(f"noise model: none ({noise['reason']})")
         return "\n".join(lines)
 
+
+def _in_segments(data: IOData) -> str:
+    return f" in {data.n_segments} segments" if data.n_segments > 1 else ""
 
 
 def identify(
@@ -211,6 +214,7 @@ def identify(
             raise DataError(f"validation is sampled every Ts = {validation.Ts:g}, data every "
                             f"Ts = {data.Ts:g}; both records must share the sampling period")
         estimation, source = data, "given"
+    estimation = long_segments(estimation, opts.path_end(data.p), opts.feedthrough is not False)
     if opts.center:
         estimation = estimation.remove_means()
         validation = validation.remove_means(estimation.y_offset, estimation.u_offset)
@@ -224,7 +228,7 @@ def identify(
     grid = default_omega(estimation.Ts, opts.filter_grid) if opts.omega is None else np.array(opts.omega)
     radius = opts.max_radius
     if radius == "auto":
-        radius = float(np.exp(-AUTO_RADIUS_SPAN / estimation.N))
+        radius = float(np.exp(-AUTO_RADIUS_SPAN / longest_segment(estimation).N))
     delays = _input_delays(opts.delays, estimation)
     check_sample_count(estimation.N - max(delays), (1,) * p, estimation.m, opts.feedthrough is not False)
     screen(estimation, nmax, stacklevel=2)
@@ -233,7 +237,7 @@ def identify(
     _warn_if_closed_loop(estimation, lag_zero=opts.feedthrough is not True)
     # the path's models are fitted and scored on the shifted inputs, delay-free; the
     # delays are attached once the path is done (the results are the same either way)
-    fitted, scored = _shifted(estimation, delays), _shifted(validation, delays)
+    fitted, scored = shifted_inputs(estimation, delays), shifted_inputs(validation, delays)
     search = StructureSearch(
         fitted, scored, grid, opts.tuning, opts.iterations, opts.s, opts.seed, opts.x0,
         opts.criterion_x0, opts.feedthrough, radius, opts.trend_degree, opts.output_filters,
@@ -356,7 +360,8 @@ def _input_delays(delays: int | tuple[int, ...] | str, estimation: IOData) -> tu
     """``IdentifyOptions.delays`` for this record: one int per input, checked or estimated."""
     m = estimation.m
     if delays == "auto":
-        first, _ = first_significant_lags(estimation)
+        # lagged regressions run through time: on the longest continuous stretch
+        first, _ = first_significant_lags(longest_segment(estimation))
         # per input, the earliest response over the outputs; an input that no output
         # answers within the lags looked at gets no delay (nothing supports one)
         return tuple(
@@ -373,21 +378,12 @@ def _input_delays(delays: int | tuple[int, ...] | str, estimation: IOData) -> tu
     return values
 
 
-def _shifted(data: IOData, delays: tuple[int, ...]) -> IOData:
-    """``data`` with input ``j`` delayed by ``delays[j]`` samples (zero, i.e. the operating
-    point, before the record), as the model's simulation shifts it."""
-    if not any(delays):
-        return data
-    shifted = IOData(data.y, shift_inputs(data.u, delays), data.Ts, data.output_names, data.input_names)
-    shifted.y_offset, shifted.u_offset = data.y_offset.copy(), data.u_offset.copy()
-    return shifted
-
-
 def _warn_if_closed_loop(estimation: IOData, lag_zero: bool) -> None:
     """Issue a :class:`ClosedLoopWarning` when :func:`feedback_check` flags the record."""
     # the first FEEDBACK_SAMPLES samples: a loop that shows in no fewer is too weak to
     # matter, and the check's cost stays bounded while the search's grows with N
-    record = estimation[:FEEDBACK_SAMPLES]
+    # lagged regressions run through time: of a record with gaps, the longest stretch
+    record = longest_segment(estimation)[:FEEDBACK_SAMPLES]
     lags = usable_lags(record.N, record.p, record.m)
     if lags == 0:  # too short to tell
         return

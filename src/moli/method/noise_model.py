@@ -21,7 +21,7 @@ import copy
 import numpy as np
 import scipy.linalg
 
-from ..data.iodata import IOData
+from ..data.iodata import IOData, longest_segment
 from ..errors import DataError
 from ..models.simulation import free_response, simulate_batch
 from ..models.statespace import StateSpaceModel
@@ -156,7 +156,8 @@ def estimate_noise_model(model: StateSpaceModel, data: IOData) -> StateSpaceMode
         Stable (its simulation error is what the noise model describes).
     data : IOData
         Record to estimate on, raw or centred (offsets handled as :func:`moli.compare`),
-        with at least ``20 p + 1`` samples.
+        with at least ``20 p + 1`` samples. Of a record of several segments, the
+        longest one is used (``info["noise_model"]["segment"]`` says which).
 
     Returns
     -------
@@ -184,6 +185,9 @@ def estimate_noise_model(model: StateSpaceModel, data: IOData) -> StateSpaceMode
         raise DataError(f"model must be a StateSpaceModel, got {type(model).__name__}")
     if not model.is_stable():
         raise DataError("the noise model needs a stable model: its simulation error grows without bound")
+    whole = data
+    # the AR fit and the innovations run through time: one continuous stretch, the longest
+    data = longest_segment(data) if isinstance(data, IOData) else data
     u, y = deviations(model, data)
     N, p = y.shape
     order = min(MAX_AR_ORDER, (N - ROWS_PER_PARAMETER * p) // (ROWS_PER_PARAMETER * p + 1))
@@ -211,4 +215,7 @@ def estimate_noise_model(model: StateSpaceModel, data: IOData) -> StateSpaceMode
         "method": "prediction error", "start": start, "ar_order": ar.order, "gauss_newton_steps": steps,
         "predictor_radius": _spectral_radius(model.A - K @ model.C),
     }
+    if whole.n_segments > 1:
+        attached.info["noise_model"]["segment"] = list(whole.bounds).index(
+            max(whole.bounds, key=lambda bound: bound[1] - bound[0]))
     return attached

@@ -107,8 +107,9 @@ class RefineResult:
     ----------
     model : StateSpaceModel
         Refined model (same indices, alpha, offsets; ``info['refined']`` added).
-    x0 : ndarray, shape (n,)
-        Initial state of the estimation record (zero unless estimated).
+    x0 : ndarray, shape (n,) or (segments, n)
+        Initial state of the estimation record (zero unless estimated); one row per
+        segment when the record has several.
     cost_start, cost : float
         ``V`` at the start and at the end (``cost <= cost_start``).
     iterations : int
@@ -148,8 +149,13 @@ def _sensitivities(A: np.ndarray, C: np.ndarray, signals: np.ndarray) -> tuple[n
 class _Problem:
     """Residuals and Jacobian of the output-error criterion in observer-form parameters."""
 
-    def __init__(self, form: ObserverForm, u: np.ndarray, y: np.ndarray, fit_x0: bool) -> None:
+    def __init__(
+        self, form: ObserverForm, u: np.ndarray, y: np.ndarray, fit_x0: bool, starts: tuple[int, ...] = (0,)
+    ) -> None:
         self.form = form
+        # each segment is simulated from its own initial state, all of them estimated
+        self.bounds = tuple(zip(starts, (*starts[1:], y.shape[0])))
+        self.x0_size = form.B.shape[0] * len(starts)
         self.feedthrough = bool(np.any(form.F != 0))
         self.u, self.y = u, y
         self.n, self.p, self.m = form.B.shape[0], y.shape[1], u.shape[1]
@@ -179,24 +185,34 @@ class _Problem:
         if self.feedthrough:
             F = theta[at : at + p * m].reshape(p, m)
             at += p * m
-        x0 = theta[at:] if self.fit_x0 else np.zeros(n)
+        x0 = theta[at:] if self.fit_x0 else np.zeros(self.x0_size)
         return ObserverForm(self.form.A_D, self.form.C_D, D, B, G, F), x0
 
     def simulate(self, theta: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, ...], np.ndarray]:
         form, x0 = self.unpack(theta)
         A, B, C = form.matrices()
-        yhat = simulate_batch(A[None], B[None], C[None], self.u, x0[None])[0] + self.u @ form.F.T
+        starts = x0.reshape(-1, self.n)
+        yhat = np.concatenate([simulate_batch(A[None], B[None], C[None], self.u[a:b], start[None])[0]
+                               for (a, b), start in zip(self.bounds, starts)]) + self.u @ form.F.T
         return yhat, (A, B, C), form.G
 
     def residual(self, yhat: np.ndarray) -> np.ndarray:
         return ((self.y - yhat) * self.weights).ravel()
 
     def initial_state_columns(self, theta: np.ndarray) -> np.ndarray:
-        """d yhat / d x0, weighted, shape (N p, n): the Jacobian's last columns."""
+        """d yhat / d x0, weighted, shape (N p, n segments): the Jacobian's last columns."""
         form, _ = self.unpack(theta)
         A, _, C = form.matrices()
-        free = free_response(A, C, self.y.shape[0])
-        return (free * self.weights[None, :, None]).reshape(-1, self.n)
+        return (self._free(A, C) * self.weights[None, :, None]).reshape(-1, self.x0_size)
+
+    def _free(self, A: np.ndarray, C: np.ndarray) -> np.ndarray:
+        """d yhat / d x0 unweighted, (N, p, n segments): each segment's free response in its own columns."""
+        if len(self.bounds) == 1:
+            return free_response(A, C, self.y.shape[0])
+        free = np.zeros((self.y.shape[0], self.p, self.x0_size))
+        for i, (a, b) in enumerate(self.bounds):
+            free[a:b, :, i * self.n : (i + 1) * self.n] = free_response(A, C, b - a)
+        return free
 
     def jacobian(self, theta: np.ndarray, yhat: np.ndarray) -> np.ndarray:
         """d yhat / d theta, weighted, shape (N p, parameters)."""
@@ -204,7 +220,9 @@ class _Problem:
         form, _ = self.unpack(theta)
         A, _, C = form.matrices()
         yx = yhat - self.u @ form.F.T                   # C x: the part the state produces
-        S, free = _sensitivities(A, C, np.concatenate([self.u, yx], axis=1))
+        signals = np.concatenate([self.u, yx], axis=1)
+        # the sensitivities restart with the state at each segment (its x0 is a parameter of its own)
+        S = np.concatenate([_sensitivities(A, C, signals[a:b])[0] for a, b in self.bounds])
         N = self.y.shape[0]
         cols = [
             S[:, :, :, m:].reshape(N, p, n * p),       # D[a, b]: signal yhat_b into state a
@@ -222,7 +240,7 @@ class _Problem:
             eye = np.eye(p)
             cols.append((eye[None, :, :, None] * self.u[:, None, None, :]).reshape(N, p, p * m))
         if self.fit_x0:
-            cols.append(free)
+            cols.append(self._free(A, C))
         jac = np.concatenate(cols, axis=2) * self.weights[None, :, None]
         return jac.reshape(N * p, -1)
 
@@ -246,7 +264,8 @@ def refine(
         ``indices`` and ``alpha``. Must be stable (an unstable start is returned
         unchanged, with zero iterations).
     data : IOData
-        Estimation record, centred like the data the model was estimated on.
+        Estimation record, centred like the data the model was estimated on. Each of
+        its segments is simulated from its own initial state.
     iterations : int, default 10
         Most Levenberg-Marquardt steps to accept (few steps act as early stopping).
     ridge : float, default 0.0
@@ -284,15 +303,17 @@ def refine(
         raise DataError(f"model has {model.p} outputs and {model.m} inputs, data {data.p} and {data.m}")
     form = observer_form(model)
     # a model with input delays is refined on the inputs as its simulation shifts them
-    problem = _Problem(form, shift_inputs(data.u, model.input_delays), data.y, fit_x0)
-    theta0 = problem.pack(form, np.zeros(model.n))
+    # each segment from its own initial state, its inputs shifted within it
+    u = np.concatenate([shift_inputs(data.u[a:b], model.input_delays) for a, b in data.bounds])
+    problem = _Problem(form, u, data.y, fit_x0, data.segment_starts)
+    theta0 = problem.pack(form, np.zeros(problem.x0_size))
     theta = theta0.copy()
     yhat, _, _ = problem.simulate(theta)
     residual = problem.residual(yhat)
     stable = bool(np.max(np.abs(model.poles()), initial=0.0) < max_radius)
     if fit_x0 and stable:
         # start from the best initial state for the start model (a linear problem)
-        theta[-model.n :] = np.linalg.lstsq(problem.initial_state_columns(theta), residual, rcond=None)[0]
+        theta[-problem.x0_size :] = np.linalg.lstsq(problem.initial_state_columns(theta), residual, rcond=None)[0]
         yhat, _, _ = problem.simulate(theta)
         residual = problem.residual(yhat)
     scale = None
@@ -314,7 +335,7 @@ def refine(
             if scale is None:
                 scale = norms.copy()
                 if fit_x0:
-                    scale[-model.n :] = 0.0     # x0 is a nuisance parameter: not penalised
+                    scale[-problem.x0_size :] = 0.0     # x0 is a nuisance parameter: not penalised
             # |jac s - residual| = |T[:, :-1] s - T[:, -1]| for the triangular factor T
             # of [jac, residual]: each damping tried below solves a problem of the
             # parameters' size instead of the record's
@@ -359,4 +380,5 @@ def refine(
     info.update({"refined": True, "refine_iterations": accepted, "refine_ridge": ridge,
                  "refine_cost_start": cost_start, "refine_cost": cost})
     refined = model.with_matrices(A, B, C, F, info, model.divisors)
-    return RefineResult(refined, x0, cost_start, cost, accepted, rejected)
+    return RefineResult(refined, x0 if data.n_segments == 1 else x0.reshape(data.n_segments, -1),
+                        cost_start, cost, accepted, rejected)

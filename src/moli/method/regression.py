@@ -21,7 +21,7 @@ from .estimation import solve_batch
 from .filters import _needs_real, filter_rows
 from .structure import Indices
 
-__all__ = ["RegressionCache"]
+__all__ = ["RegressionCache", "combine_factors"]
 
 FEEDTHROUGH_CHOICES = (False, True, "auto")
 # Significance level of the "auto" feedthrough test. Strict, because the equation
@@ -57,12 +57,19 @@ class RegressionCache:
         ``"auto"`` keeps them for an output only where a nested F-test on the
         estimation data finds them significant at level :data:`FEEDTHROUGH_LEVEL`
         (otherwise that output's feedthrough is exactly zero).
+    starts : sequence of int, default (0,)
+        First sample of each segment of ``z``: each segment is filtered from a zero
+        state and factored alone, and the segments' factors are combined
+        (:func:`combine_factors`), so no row spans a boundary.
     """
 
-    def __init__(self, z: np.ndarray, p: int, feedthrough: bool | str = False) -> None:
+    def __init__(
+        self, z: np.ndarray, p: int, feedthrough: bool | str = False, starts: Sequence[int] = (0,)
+    ) -> None:
         if feedthrough not in FEEDTHROUGH_CHOICES:
             raise OptionError(f"feedthrough must be one of {FEEDTHROUGH_CHOICES}, got {feedthrough!r}")
         self.z = z
+        self.starts = tuple(starts)
         self.p = p
         self.feedthrough = feedthrough
         # columns appended to xi: the outputs, and the inputs when they feed through
@@ -107,32 +114,23 @@ class RegressionCache:
             by_degree: dict[int, list[tuple[bytes, np.ndarray]]] = {}
             for k, a in todo.items():
                 by_degree.setdefault(a.size - 1, []).append((k, a))
-            from scipy.signal import lfilter  # scipy.signal is slow to import: only when filtering
-
-            N, c = self.z.shape
-            signals = np.ascontiguousarray(self.z.T)
+            bounds = tuple(zip(self.starts, (*self.starts[1:], self.z.shape[0])))
             for nbar, items in by_degree.items():
-                rows, cols = N - nbar, c * nbar + self.extra
-                # each matrix stored column by column: LAPACK factors it in place, without
-                # the copies np.linalg.qr makes of its input
-                columns = np.empty((len(items), cols, rows))
-                for i, (_, a) in enumerate(items):
-                    # column r nbar + t (channel r filtered by q^t/alpha, from sample nbar
-                    # on) is the filtered channel r from sample t on
-                    base = lfilter([1.0], a, signals, axis=-1)
-                    s_r, s_k = base.strides
-                    delayed = as_strided(base, (c, nbar, rows), (s_r, s_k, s_k), writeable=False)
-                    np.copyto(columns[i, : c * nbar].reshape(c, nbar, rows), delayed)
-                columns[:, c * nbar :] = signals[: self.extra, nbar:]
-                block = min(QR_BLOCK, rows, cols)
-                below = _below_diagonal(min(rows, cols), cols)
-                for (k, _), matrix in zip(items, columns):
-                    factored = scipy.linalg.lapack.dgeqrt(block, matrix.T, overwrite_a=True)[0]
-                    factor = np.array(factored[: min(rows, cols)], order="C")
-                    factor[below] = 0.0          # the reflectors LAPACK leaves below R
+                # each segment from a zero filter state, folded into the factors of the
+                # segments before it; those too short to give a row add nothing
+                combined: list[np.ndarray] = []
+                for a, b in bounds:
+                    if b - a > nbar:
+                        factors = _record_factors(self.z[a:b], [alpha for _, alpha in items], self.extra)
+                        combined = [combine_factors([r, f]) for r, f in zip(combined, factors)] or factors
+                for (k, _), factor in zip(items, combined):
                     self._factors[k] = factor
                 self.factorizations += len(items)
         return [self._factors[k] for k in keys]
+
+    def rows(self, nbar: int) -> int:
+        """Regression rows of filters of degree ``nbar``: each segment's samples from ``nbar`` on."""
+        return sum(max(b - a - nbar, 0) for a, b in zip(self.starts, (*self.starts[1:], self.z.shape[0])))
 
     def solve(
         self, batches: Sequence[tuple[Sequence[np.ndarray], Sequence[Sequence[np.ndarray]], Indices]]
@@ -201,7 +199,7 @@ class RegressionCache:
         """
         m = self.z.shape[1] - self.p
         count, k_rows, q1 = small.shape
-        dof = self.z.shape[0] - nbar - q1
+        dof = self.rows(nbar) - q1
         if k_rows <= q1 or dof <= 0:
             return solve_batch(small, rhs)[0]        # short records: keep the feedthrough
         q0 = q1 - m
@@ -229,6 +227,49 @@ class RegressionCache:
                 else:                                      # rank deficient: minimum-norm solution
                     theta[i, :k] = scipy.linalg.lstsq(small[i, :, :k] / norms[i, 0, :k], rhs[i])[0]
         return theta / norms[:, 0, :]
+
+
+def _record_factors(z: np.ndarray, alphas: Sequence[np.ndarray], extra: int) -> list[np.ndarray]:
+    """Triangular factors of ``[xi, y]`` (``extra`` columns of ``z`` after ``xi``) of one record,
+    one per filter polynomial of the same degree, from a zero filter state."""
+    from scipy.signal import lfilter  # scipy.signal is slow to import: only when filtering
+
+    nbar = alphas[0].size - 1
+    N, c = z.shape
+    signals = np.ascontiguousarray(z.T)
+    rows, cols = N - nbar, c * nbar + extra
+    # each matrix stored column by column: LAPACK factors it in place, without
+    # the copies np.linalg.qr makes of its input
+    columns = np.empty((len(alphas), cols, rows))
+    for i, a in enumerate(alphas):
+        # column r nbar + t (channel r filtered by q^t/alpha, from sample nbar
+        # on) is the filtered channel r from sample t on
+        base = lfilter([1.0], a, signals, axis=-1)
+        s_r, s_k = base.strides
+        delayed = as_strided(base, (c, nbar, rows), (s_r, s_k, s_k), writeable=False)
+        np.copyto(columns[i, : c * nbar].reshape(c, nbar, rows), delayed)
+    columns[:, c * nbar :] = signals[:extra, nbar:]
+    block = min(QR_BLOCK, rows, cols)
+    below = _below_diagonal(min(rows, cols), cols)
+    factors = []
+    for matrix in columns:
+        factored = scipy.linalg.lapack.dgeqrt(block, matrix.T, overwrite_a=True)[0]
+        factor = np.array(factored[: min(rows, cols)], order="C")
+        factor[below] = 0.0          # the reflectors LAPACK leaves below R
+        factors.append(factor)
+    return factors
+
+
+def combine_factors(factors: Sequence[np.ndarray]) -> np.ndarray:
+    """One triangular factor of the rows of several records, from each record's factor.
+
+    ``R^T R`` of ``[X_1; X_2; ...]`` is ``sum R_i^T R_i``, which is the ``R^T R`` of the
+    stacked ``[R_1; R_2; ...]``: their QR factor serves every least-squares problem
+    of the stacked rows (docs/method.md §3, "Segments"). One factor is returned as is.
+    """
+    if len(factors) == 1:
+        return factors[0]
+    return np.linalg.qr(np.concatenate(factors), mode="r")
 
 
 @functools.lru_cache(maxsize=None)

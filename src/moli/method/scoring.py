@@ -10,7 +10,7 @@ several lists in shared batches.
 from __future__ import annotations
 
 import functools
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -88,7 +88,8 @@ def _trend_basis(N: int, degree: int) -> np.ndarray:
 
 
 def error_ratio(
-    y: np.ndarray, yhat: np.ndarray, degree: int = 0, y_var: np.ndarray | None = None
+    y: np.ndarray, yhat: np.ndarray, degree: int = 0, y_var: np.ndarray | None = None,
+    starts: Sequence[int] = (0,),
 ) -> np.ndarray:
     """Per-output share of the output variance left in the simulation error, at most 1.
 
@@ -107,6 +108,10 @@ def error_ratio(
         Degree of the polynomial trend ignored.
     y_var : ndarray, shape (p,), optional
         ``np.var(y, axis=0)`` when already known.
+    starts : sequence of int, default (0,)
+        First sample of each segment of the record: a trend of degree 1 or more is
+        fitted to each segment's errors separately (a drift does not continue
+        across a gap); degree 0 removes the mean of all the errors together.
 
     Returns
     -------
@@ -124,9 +129,10 @@ def error_ratio(
             ratio = np.var(error, axis=0) / y_var
         else:
             N = y.shape[0]
-            basis = _trend_basis(N, degree)
             flat = error.reshape(N, -1)
-            flat -= basis @ (basis.T @ flat)
+            for a, b in zip(starts, (*starts[1:], N)):
+                basis = _trend_basis(b - a, min(degree, b - a - 1))
+                flat[a:b] -= basis @ (basis.T @ flat[a:b])
             ratio = np.einsum("ij,ij->j", flat, flat).reshape(error.shape[1:]) / (N * y_var)
     return np.where(np.isfinite(ratio), np.minimum(ratio, 1.0), 1.0)
 
@@ -155,12 +161,16 @@ class FilterScorer:
     trend_degree : int, default 0
         J ignores the polynomial trend of this degree in the simulation error (see
         :func:`error_ratio`); 0 is the paper's J.
+    starts : sequence of int, default (0,)
+        First sample of each segment of ``z``: the models are fitted without a row
+        across a boundary, and each segment is simulated from its own initial state;
+        J scores the errors of all segments together.
     """
 
     def __init__(
         self, z: np.ndarray, indices: Indices, Ts: float, s: float,
         cache: RegressionCache | None = None, x0: str = "zero",
-        max_radius: float | None = None, trend_degree: int = 0,
+        max_radius: float | None = None, trend_degree: int = 0, starts: Sequence[int] = (0,),
     ) -> None:
         self.max_radius = max_radius
         self.trend_degree = check_trend_degree(trend_degree)
@@ -172,6 +182,9 @@ class FilterScorer:
         self.Ts = Ts
         self.s = s
         self.cache = cache
+        self.starts = tuple(starts)
+        if cache is not None and cache.starts != self.starts:
+            raise OptionError("the scorer and its regression cache must share the record's segments")
         p = len(indices)
         self.y = z[:, :p]
         self.u = z[:, p:]
@@ -182,7 +195,7 @@ class FilterScorer:
         """The batch of models ``(A, B, C)`` (and ``D`` with feedthrough) for each candidate."""
         if self.cache is None:
             alphas = [filter_divisors(w, zeta, self.indices, self.Ts, self.s) for w, zeta in etas]
-            A, B, C, _ = fit_batch(self.z, self.indices, alphas)
+            A, B, C, _ = fit_batch(self.z, self.indices, alphas, self.starts)
             return A, B, C
         return _fit_cached([self], [etas])[0]
 
@@ -209,15 +222,26 @@ class FilterScorer:
         caller then applies :meth:`too_slow` to the ones it keeps.
         """
         A, B, C = matrices[:3]
-        yhat = simulate_batch(A, B, C, self.u)
+        yhat = self._simulate(A, B, C)
         if len(matrices) == 4:
             yhat = yhat + self.u @ matrices[3].transpose(0, 2, 1)
         if self.x0 == "estimate":
-            yhat = yhat + _initial_response(A, C, self.y[None] - yhat)
-        ratio = error_ratio(self.y, yhat, self.trend_degree, self.y_var)
+            yhat = yhat + self._by_segment(lambda a, b: _initial_response(A, C, self.y[None, a:b] - yhat[:, a:b]))
+        ratio = error_ratio(self.y, yhat, self.trend_degree, self.y_var, self.starts)
         if radius_rule:
             ratio[self.too_slow(A)] = 1.0
         return ratio.mean(axis=1)
+
+    def _simulate(self, A: np.ndarray, B: np.ndarray, C: np.ndarray) -> np.ndarray:
+        """Simulations (R, N, p) of a batch from the zero state, restarted at each segment."""
+        if len(self.starts) == 1:
+            return simulate_batch(A, B, C, self.u)
+        return self._by_segment(lambda a, b: simulate_batch(A, B, C, self.u[a:b]))
+
+    def _by_segment(self, run: Callable[[int, int], np.ndarray]) -> np.ndarray:
+        """``run(start, stop)`` on each segment, the results (R, segment length, p) end to end."""
+        N = self.z.shape[0]
+        return np.concatenate([run(a, b) for a, b in zip(self.starts, (*self.starts[1:], N))], axis=1)
 
     def too_slow(self, A: np.ndarray) -> np.ndarray:
         """Which models of the batch ``A`` (R, n, n) have a pole of modulus ``max_radius`` or more."""
@@ -251,8 +275,8 @@ def score_lists(
     first = scorers[0]
     for other in scorers[1:]:
         if other.z is not first.z or other.cache is not first.cache or (
-            other.x0, other.max_radius, other.trend_degree
-        ) != (first.x0, first.max_radius, first.trend_degree):
+            other.x0, other.max_radius, other.trend_degree, other.starts
+        ) != (first.x0, first.max_radius, first.trend_degree, first.starts):
             raise OptionError("lists scored together must share the record, the cache and the criterion")
     if first.cache is None:
         fits = [scorer.fit(np.asarray(e, float)) for scorer, e in zip(scorers, etas)]

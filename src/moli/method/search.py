@@ -10,7 +10,7 @@ import numpy as np
 
 from ..data.iodata import IOData
 from ..errors import DataError
-from .estimation import check_sample_count
+from .rows import check_regression_rows
 from ..models.statespace import StateSpaceModel
 from .structure import Indices, compositions, raised
 from .output_filters import tune_output_cutoffs
@@ -131,13 +131,13 @@ class StructureSearch:
         self.x0 = x0
         self._z = np.concatenate([estimation.y, estimation.u], axis=1)
         self._cache: dict[Indices, PathStep] = {}
-        self._regressions = RegressionCache(self._z, estimation.p, feedthrough)
+        self._regressions = RegressionCache(self._z, estimation.p, feedthrough, estimation.segment_starts)
 
     def feasible(self, indices: Indices) -> bool:
         """Whether the estimation record has enough samples for this list."""
         try:
-            check_sample_count(self.estimation.N, indices, self.estimation.m,
-                               self._regressions.feedthrough is not False)
+            check_regression_rows(self.estimation.bounds, indices, self.estimation.m,
+                                  self._regressions.feedthrough is not False)
         except DataError:
             return False
         return True
@@ -173,7 +173,7 @@ class StructureSearch:
     def _scorer(self, indices: Indices) -> FilterScorer:
         return FilterScorer(
             self._z, indices, self.estimation.Ts, self.s, self._regressions, self.criterion_x0,
-            self.max_radius, self.trend_degree,
+            self.max_radius, self.trend_degree, self.estimation.segment_starts,
         )
 
     def _separate(self, step: PathStep) -> None:

@@ -16,7 +16,8 @@ from ..errors import DataError
 from ..models.statespace import StateSpaceModel
 from ..validation.prediction import deviations
 from .covariance import matrix_covariance
-from .estimation import check_sample_count, output_regressors
+from .estimation import output_regressors
+from .rows import check_regression_rows, regression_rows, row_breaks
 from .filters import divisors
 from .refinement import ObserverForm, observer_form
 
@@ -55,7 +56,9 @@ def estimate_covariance(model: StateSpaceModel, data: IOData) -> StateSpaceModel
         ``divisors``). For a refined model the problems are the least-squares ones of
         its structure and filters, and the Jacobian is taken at its own matrices.
     data : IOData
-        The estimation record, raw or centred (offsets handled as :func:`moli.compare`).
+        The estimation record, raw or centred (offsets handled as :func:`moli.compare`);
+        each segment's problems start from zero filter states, and the long-run
+        covariance takes no lag across a boundary.
 
     Returns
     -------
@@ -89,10 +92,12 @@ def estimate_covariance(model: StateSpaceModel, data: IOData) -> StateSpaceModel
     u, y = deviations(model, data)
     form = observer_form(model)
     through = _feedthrough_rows(model, form)
-    check_sample_count(y.shape[0], model.indices, model.m, bool(through.any()))
+    check_regression_rows(data.bounds, model.indices, model.m, bool(through.any()))
     filters = model.divisors if model.divisors is not None else divisors(model.alpha, model.indices)
-    phis = output_regressors(np.concatenate([y, u], axis=1), model.indices, filters, through)
-    factor, record = matrix_covariance(phis, y[max(model.indices):], model.indices, model.C, model.D, through, form.D)
+    z, starts, skip = np.concatenate([y, u], axis=1), data.segment_starts, max(model.indices)
+    phis = output_regressors(z, model.indices, filters, through, starts)
+    factor, record = matrix_covariance(phis, regression_rows(z, skip, starts)[:, : model.p], model.indices,
+                                       model.C, model.D, through, form.D, row_breaks(starts, z.shape[0], skip))
     attached = copy.deepcopy(model)
     attached.cov_factor, attached.info["covariance"] = factor, record
     return attached

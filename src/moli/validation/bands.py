@@ -27,7 +27,8 @@ def simulation_bands(
     model : StateSpaceModel
         With a covariance (from :func:`moli.identify` or :func:`moli.estimate`).
     data : IOData
-        Raw or centred data; offsets are handled as :func:`moli.compare` does.
+        Raw or centred data; offsets are handled as :func:`moli.compare` does. Each
+        segment is simulated from the zero state.
     confidence, method, samples, seed
         As in :meth:`StateSpaceModel.magnitude_bands`: probability of each pointwise
         interval, "gauss" or "monte_carlo" (which keeps ``samples x N x p`` outputs in
@@ -59,6 +60,9 @@ def simulation_bands(
     ((500, 1), True)
     """
     u, _ = deviations(model, data)
-    lower, upper = output_bands(model, u, confidence, method=method, samples=samples, seed=seed)
+    # each segment simulated from the zero state, as moli.compare does
+    runs = [output_bands(model, u[a:b], confidence, method=method, samples=samples, seed=seed)
+            for a, b in data.bounds]
+    lower, upper = (np.concatenate([run[i] for run in runs]) for i in (0, 1))
     shift = model.y_offset - data.y_offset
     return lower + shift, upper + shift

@@ -32,8 +32,8 @@ class Comparison:
         Variance accounted for per output, percent.
     fit : ndarray, shape (p,)
         NRMSE fit per output, percent.
-    x0 : ndarray, shape (n,)
-        Initial state used.
+    x0 : ndarray, shape (n,) or (segments, n)
+        Initial state used; one row per segment when the record has several.
     horizon : int or None
         Prediction horizon ``k``; None for the simulation.
     """
@@ -76,6 +76,8 @@ def compare(model: StateSpaceModel, data: IOData, x0: str = "zero", horizon: int
 
     With ``horizon=k`` the scored outputs are the k-step-ahead predictions instead
     (:func:`moli.predict`), like the System Identification Toolbox's ``compare``.
+    A record of several segments is simulated segment by segment, each from its own
+    initial state, and scored over all of them together.
 
     Parameters
     ----------
@@ -118,7 +120,9 @@ def compare(model: StateSpaceModel, data: IOData, x0: str = "zero", horizon: int
             f"the record is sampled every Ts = {data.Ts:g}, the model every Ts = {model.Ts:g}; "
             "a discrete-time model only describes records of its own sampling period"
         )
-    ydev, start = predicted_deviations(model, u, y, k, x0)
+    runs = [predicted_deviations(model, u[a:b], y[a:b], k, x0) for a, b in data.bounds]
+    ydev = np.concatenate([run[0] for run in runs])
+    start = runs[0][1] if len(runs) == 1 else np.stack([run[1] for run in runs])
     return Comparison(
         yhat=ydev + model.y_offset - data.y_offset, vaf=vaf(y, ydev), fit=nrmse_fit(y, ydev), x0=start,
         horizon=k,

@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.special
 
-from ..data.iodata import IOData
+from ..data.iodata import IOData, require_one_segment
 from ..errors import DataError
 
 __all__ = ["estimate_delays", "first_significant_lags", "DEFAULT_MAX_DELAY"]
@@ -52,6 +52,7 @@ def first_significant_lags(
     """
     if not isinstance(data, IOData):
         raise DataError(f"data must be an IOData, got {type(data).__name__}")
+    require_one_segment(data, "the delay estimate (lagged regressions)")
     order = _integer("order", order, 1)
     if isinstance(level, bool) or not isinstance(level, (int, float)) or not 0 < level < 1:
         raise DataError(f"level must be a number in (0, 1), got {level!r}")

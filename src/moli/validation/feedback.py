@@ -24,7 +24,7 @@ import numpy as np
 import scipy.linalg
 import scipy.special
 
-from ..data.iodata import IOData
+from ..data.iodata import IOData, require_one_segment
 from ..errors import DataError
 
 __all__ = ["FeedbackCheck", "feedback_check", "DEFAULT_LAGS"]
@@ -143,6 +143,7 @@ def feedback_check(
     """
     if not isinstance(data, IOData):
         raise DataError(f"data must be an IOData, got {type(data).__name__}")
+    require_one_segment(data, "feedback_check (lagged regressions)")
     if isinstance(level, bool) or not isinstance(level, (int, float)) or not 0 < level < 1:
         raise DataError(f"level must be a number in (0, 1), got {level!r}")
     if not isinstance(lag_zero, bool):

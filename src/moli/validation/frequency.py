@@ -12,7 +12,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..data.iodata import IOData
+from ..data.iodata import IOData, require_one_segment
 from ..errors import DataError
 from ..models.frequency import check_omega
 
@@ -90,6 +90,7 @@ def empirical_frequency_response(
     """
     if not isinstance(data, IOData):
         raise DataError(f"data must be an IOData, got {type(data).__name__}")
+    require_one_segment(data, "empirical_frequency_response (Welch spectra)")
     N, p, m = data.N, data.p, data.m
     if nperseg is None:
         length = default_segment(N, m)

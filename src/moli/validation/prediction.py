@@ -162,7 +162,8 @@ def predict(
     model : StateSpaceModel
         With a noise model (``model.K`` not None) for ``horizon >= 1``.
     data : IOData
-        Raw or centred data; offsets are handled as :func:`moli.compare` does.
+        Raw or centred data; offsets are handled as :func:`moli.compare` does. Each
+        segment is predicted from its own initial state.
     horizon : int or None, default None
         ``k >= 1``; None: pure simulation (no outputs used, as :func:`moli.compare`).
     x0 : {"estimate", "zero"}, default "estimate"
@@ -200,5 +201,6 @@ def predict(
         raise DataError(f"model must be a StateSpaceModel, got {type(model).__name__}")
     k = check_horizon(model, horizon)
     u, y = deviations(model, data)
-    ydev, _ = predicted_deviations(model, u, y, k, x0)
+    # each segment from its own initial state: the predictor does not run across a gap
+    ydev = np.concatenate([predicted_deviations(model, u[a:b], y[a:b], k, x0)[0] for a, b in data.bounds])
     return ydev + model.y_offset - data.y_offset

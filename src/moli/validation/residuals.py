@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from ..data.iodata import IOData
+from ..data.iodata import IOData, require_one_segment
 from ..errors import DataError, OptionError
 from ..models.statespace import StateSpaceModel
 from .prediction import X0_CHOICES, deviations, horizon_value, predicted_deviations
@@ -204,6 +204,8 @@ def residual_analysis(
     if not isinstance(model, StateSpaceModel):
         raise DataError(f"model must be a StateSpaceModel, got {type(model).__name__}")
     k = horizon_value(horizon)  # checked even when unused
+    if isinstance(data, IOData):
+        require_one_segment(data, "residual_analysis (correlations over lags)")
     if model.K is None:
         k = None  # no predictor: the simulation errors
     u, y = deviations(model, data)

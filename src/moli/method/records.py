@@ -1,0 +1,56 @@
+"""What :func:`moli.identify` does to its records before the search: short segments out, inputs delayed."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from ..data.iodata import IOData, merge
+from ..errors import DataError, DataQualityWarning
+from ..models.delays import shift_inputs
+from .estimation import check_sample_count
+from .structure import Indices
+
+__all__ = ["long_segments", "shifted_inputs"]
+
+
+def long_segments(data: IOData, nmax: int, feedthrough: bool) -> IOData:
+    """``data`` without the segments too short for the search's largest list, which warn.
+
+    A record of one segment is returned as it is (the search skips the lists it is too
+    short for). Of several, a segment that cannot hold every list up to ``nmax`` on its
+    own is dropped with a :class:`DataQualityWarning`; none left is a :class:`DataError`.
+    """
+    if data.n_segments == 1:
+        return data
+    p = data.p
+    # the list of degree nmax needing most samples: its whole excess on the last output
+    largest: Indices = (1,) * (p - 1) + (max(nmax, p) - p + 1,)
+    short = []
+    for i, (start, stop) in enumerate(data.bounds):
+        try:
+            check_sample_count(stop - start, largest, data.m, feedthrough)
+        except DataError:
+            short.append(i)
+    if not short:
+        return data
+    kept = [segment for i, segment in enumerate(data.segments) if i not in short]
+    lengths = ", ".join(f"{i} ({data.bounds[i][1] - data.bounds[i][0]} samples)" for i in short)
+    if not kept:
+        raise DataError(f"every segment of the estimation record is too short for the list "
+                        f"{list(largest)} (order {sum(largest)}): segments {lengths}")
+    warnings.warn(f"estimation segments {lengths} are too short for the list {list(largest)} "
+                  f"(order {sum(largest)}) and were left out", DataQualityWarning, stacklevel=3)
+    return merge(kept)
+
+
+def shifted_inputs(data: IOData, delays: tuple[int, ...]) -> IOData:
+    """``data`` with input ``j`` delayed by ``delays[j]`` samples (zero, i.e. the operating
+    point, before the record), as the model's simulation shifts it."""
+    if not any(delays):
+        return data
+    u = np.concatenate([shift_inputs(data.u[a:b], delays) for a, b in data.bounds])  # zero at each segment's start
+    shifted = IOData(data.y, u, data.Ts, data.output_names, data.input_names, segment_starts=data.segment_starts)
+    shifted.y_offset, shifted.u_offset = data.y_offset.copy(), data.u_offset.copy()
+    return shifted

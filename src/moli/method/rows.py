@@ -1,0 +1,75 @@
+"""The regression rows of a record: which samples enter the least squares, and whether they are enough.
+
+A record of several segments (docs/data.md, "Gaps and experiments") restarts the
+filters at each segment, so each segment gives its samples from the filter
+transient's end on, and no regressor row spans a boundary (docs/method.md §3).
+"""
+
+from __future__ import annotations
+
+from itertools import accumulate
+from typing import Sequence
+
+import numpy as np
+
+from ..errors import DataError
+from .structure import Indices, parameter_counts
+
+__all__ = ["regression_rows", "row_breaks", "check_sample_count", "check_regression_rows"]
+
+
+def regression_rows(z: np.ndarray, skip: int, starts: Sequence[int] = (0,)) -> np.ndarray:
+    """The samples of ``z`` that are regression rows: each segment's from its sample ``skip`` on.
+
+    ``starts`` holds each segment's first sample; filters restart there, so a segment's
+    first ``skip`` samples only charge them (docs/method.md §3, "Segments").
+    """
+    if len(starts) == 1:
+        return z[skip:]
+    stops = (*starts[1:], z.shape[0])
+    return np.concatenate([z[a + skip : b] for a, b in zip(starts, stops) if b - a > skip] or [z[:0]])
+
+
+def row_breaks(starts: Sequence[int], N: int, skip: int) -> tuple[int, ...]:
+    """Where each segment's rows start among the stacked :func:`regression_rows` (after the first)."""
+    stops = (*starts[1:], N)
+    counts = [b - a - skip for a, b in zip(starts, stops) if b - a > skip]
+    return tuple(accumulate(counts))[:-1]
+
+
+def check_sample_count(N: int, indices: Indices, m: int, feedthrough: bool = False) -> None:
+    """Raise :class:`DataError` unless each output's regression has more rows than unknowns.
+
+    ``feedthrough``: the ``m`` current inputs join every output's regressors.
+    """
+    need = int(parameter_counts(indices, m).max()) + (m if feedthrough else 0) + max(indices) + 1
+    if N < need:
+        raise DataError(
+            f"too few samples: the list {list(indices)} with {m} inputs"
+            + (" and a feedthrough" if feedthrough else "")
+            + f" needs at least {need} samples ({need - max(indices)} rows after the filter "
+            f"transient), got {N}"
+        )
+
+
+def check_regression_rows(
+    bounds: Sequence[tuple[int, int]], indices: Indices, m: int, feedthrough: bool = False
+) -> None:
+    """:func:`check_sample_count` for a record of segments: their rows together must do.
+
+    Each segment gives its samples from ``max(indices)`` on (none when it is shorter);
+    one segment is checked exactly as :func:`check_sample_count` checks a record.
+    """
+    if len(bounds) == 1:
+        check_sample_count(bounds[0][1] - bounds[0][0], indices, m, feedthrough)
+        return
+    skip = max(indices)
+    rows = sum(max(b - a - skip, 0) for a, b in bounds)
+    need = int(parameter_counts(indices, m).max()) + (m if feedthrough else 0) + 1
+    if rows < need:
+        raise DataError(
+            f"too few samples: the list {list(indices)} with {m} inputs"
+            + (" and a feedthrough" if feedthrough else "")
+            + f" needs at least {need} regression rows, and the {len(bounds)} segments give {rows} "
+            f"(each segment's samples after its first {skip}, the filter transient)"
+        )
