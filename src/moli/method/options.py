@@ -177,7 +177,7 @@ class IdentifyOptions:
         (docs/noise_model.md); it leaves ``A, B, C, D`` and the path unchanged.
     regularization : {"none", "gcv"}, default "none"
         Plain least squares for every estimate, or ridge with the weight chosen per
-        output by generalized cross-validation (docs/method.md §15; docs/accuracy.md
+        output by generalized cross-validation (docs/method.md §16; docs/accuracy.md
         shows it does not raise the fit on fresh data across the benchmark).
     delays : int, sequence of int or "auto", default 0
         Dead time of each input in samples (one int: every input): the model is
