@@ -81,6 +81,8 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "default_widez": {"filter_grid": "widez"},
     "default_no_refine": {"refine": "none"},
     "default_refine_always": {"refine": "selected"},
+    "default_refine_path": {"refine": "path"},
+    "default_gcv": {"regularization": "gcv"},
     "default_zoom": {"tuning": "zoom", "iterations": 2},
     "default_shared_filter": {"output_filters": False},
     "default_s3": {"s": 3.0},

@@ -34,6 +34,7 @@ BAD = {
     "center": ("yes", None),
     "x0": (None, "random"),
     "noise_model": ("yes", None),
+    "regularization": (1, "lasso"),
     "delays": (1.5, -1),
 }
 

@@ -241,6 +241,7 @@ def identify(
     search = StructureSearch(
         fitted, scored, grid, opts.tuning, opts.iterations, opts.s, opts.seed, opts.x0,
         opts.criterion_x0, opts.feedthrough, radius, opts.trend_degree, opts.output_filters,
+        opts.regularization,
     )
     path: list[PathStep] = []
     interrupted = False

@@ -18,6 +18,7 @@ import numpy as np
 from ..errors import OptionError
 from ..validation.comparison import X0_CHOICES
 from .regression import FEEDTHROUGH_CHOICES
+from .regularization import REGULARIZATIONS
 from .scoring import MAX_TREND_DEGREE
 from .tuning import GRIDS, TUNING_METHODS
 
@@ -174,6 +175,10 @@ class IdentifyOptions:
         Attach a noise model (Kalman gain ``K`` and innovation covariance) to the
         selected model, estimated from its residuals on the estimation record
         (docs/noise_model.md); it leaves ``A, B, C, D`` and the path unchanged.
+    regularization : {"none", "gcv"}, default "none"
+        Plain least squares for every estimate, or ridge with the weight chosen per
+        output by generalized cross-validation (docs/method.md §16; docs/accuracy.md
+        shows it does not raise the fit on fresh data across the benchmark).
     delays : int, sequence of int or "auto", default 0
         Dead time of each input in samples (one int: every input): the model is
         estimated on the shifted inputs and carries them (``model.input_delays``).
@@ -212,6 +217,7 @@ class IdentifyOptions:
     center: bool = True
     x0: str = "zero"
     noise_model: bool = True
+    regularization: str = "none"
     delays: int | tuple[int, ...] | str = 0
 
     def __post_init__(self) -> None:
@@ -247,6 +253,7 @@ class IdentifyOptions:
             "center": _flag("center", self.center),
             "x0": _choice("x0", self.x0, X0_CHOICES),
             "noise_model": _flag("noise_model", self.noise_model),
+            "regularization": _choice("regularization", self.regularization, REGULARIZATIONS),
             "delays": _delays(self.delays),
         }
         if checked["order"] is not None and checked["nmax"] is not None and checked["order"] > checked["nmax"]:

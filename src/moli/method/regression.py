@@ -18,6 +18,7 @@ from numpy.lib.stride_tricks import as_strided
 
 from ..errors import OptionError
 from .estimation import solve_batch
+from .regularization import REGULARIZATIONS, ridge_gcv
 from .filters import _needs_real, filter_rows
 from .structure import Indices
 
@@ -61,13 +62,20 @@ class RegressionCache:
         First sample of each segment of ``z``: each segment is filtered from a zero
         state and factored alone, and the segments' factors are combined
         (:func:`combine_factors`), so no row spans a boundary.
+    regularization : {"none", "gcv"}
+        Plain least squares, or ridge with its weight chosen per problem by
+        generalized cross-validation (:func:`moli.method.regularization.ridge_gcv`).
     """
 
     def __init__(
-        self, z: np.ndarray, p: int, feedthrough: bool | str = False, starts: Sequence[int] = (0,)
+        self, z: np.ndarray, p: int, feedthrough: bool | str = False, starts: Sequence[int] = (0,),
+        regularization: str = "none",
     ) -> None:
         if feedthrough not in FEEDTHROUGH_CHOICES:
             raise OptionError(f"feedthrough must be one of {FEEDTHROUGH_CHOICES}, got {feedthrough!r}")
+        if regularization not in REGULARIZATIONS:
+            raise OptionError(f"regularization must be one of {REGULARIZATIONS}, got {regularization!r}")
+        self.regularization = regularization
         self.z = z
         self.starts = tuple(starts)
         self.p = p
@@ -171,6 +179,8 @@ class RegressionCache:
             )
             if self.feedthrough == "auto":
                 theta = self._solve_tested(small, rhs, nbar)
+            elif self.regularization == "gcv":
+                theta = ridge_gcv(small, rhs, self.rows(nbar))
             else:
                 theta = solve_batch(small, rhs)[0]
             for k, row in zip(members, theta):
@@ -222,7 +232,9 @@ class RegressionCache:
                 k = q0 if statistic <= critical else q1    # NaN (exact fit) keeps the feedthrough
                 diag = np.abs(r.diagonal()[:k])
                 smallest = diag.min()
-                if smallest > 0 and diag.max() / smallest < 1e13:
+                if self.regularization == "gcv":
+                    theta[i, :k] = ridge_gcv(small[None, i, :, :k] / norms[None, i, :, :k], rhs[None, i], dof + q1)[0]
+                elif smallest > 0 and diag.max() / smallest < 1e13:
                     theta[i, :k] = scipy.linalg.lapack.dtrtrs(r[:k, :k], r[:k, q1])[0]
                 else:                                      # rank deficient: minimum-norm solution
                     theta[i, :k] = scipy.linalg.lstsq(small[i, :, :k] / norms[i, 0, :k], rhs[i])[0]

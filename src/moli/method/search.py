@@ -108,13 +108,15 @@ class StructureSearch:
         Before a list is validated, re-tune each output's filter cutoff on J
         (:func:`moli.method.output_filters.tune_output_cutoffs`); the lists compared by
         the greedy path keep the shared filter.
+    regularization : {"none", "gcv"}, default "none"
+        Least squares of every estimate (see :class:`moli.method.regression.RegressionCache`).
     """
 
     def __init__(
         self, estimation: IOData, validation: IOData, omega: np.ndarray, tuning: str = "random",
         iterations: int = 5, s: float = 2.0, seed: int = 0, x0: str = "zero",
         criterion_x0: str = "zero", feedthrough: bool = False, max_radius: float | None = None,
-        trend_degree: int = 0, output_filters: bool = False,
+        trend_degree: int = 0, output_filters: bool = False, regularization: str = "none",
     ) -> None:
         self.output_filters = output_filters
         self.max_radius = max_radius
@@ -131,7 +133,9 @@ class StructureSearch:
         self.x0 = x0
         self._z = np.concatenate([estimation.y, estimation.u], axis=1)
         self._cache: dict[Indices, PathStep] = {}
-        self._regressions = RegressionCache(self._z, estimation.p, feedthrough, estimation.segment_starts)
+        self._regressions = RegressionCache(
+            self._z, estimation.p, feedthrough, estimation.segment_starts, regularization
+        )
 
     def feasible(self, indices: Indices) -> bool:
         """Whether the estimation record has enough samples for this list."""
