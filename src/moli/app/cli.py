@@ -45,11 +45,26 @@ DEMO_NMAX = 6
 
 
 class _Group(click.Group):
-    """Turns bad input into one line on stderr and exit code 2."""
+    """Turns bad input into one line on stderr and exit code 2.
+
+    Flags click cannot parse (``--nmax abc``, an unknown option or command) are bad
+    input too: one line, without click's usage block.
+    """
+
+    def make_context(self, info_name: str | None, args: list[str], parent: click.Context | None = None,
+                     **extra: Any) -> click.Context:
+        try:
+            return super().make_context(info_name, args, parent, **extra)
+        except click.UsageError as exc:
+            click.echo(f"moli: error: {exc.format_message()}", err=True)
+            sys.exit(USAGE_ERROR)
 
     def invoke(self, ctx: click.Context) -> Any:
         try:
             return super().invoke(ctx)
+        except click.UsageError as exc:
+            click.echo(f"moli: error: {exc.format_message()}", err=True)
+            ctx.exit(USAGE_ERROR)
         except (MoliError, OSError) as exc:
             click.echo(f"moli: error: {exc}", err=True)
             ctx.exit(USAGE_ERROR)

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import DataError, DataQualityWarning
+from .arguments import integer
 from .iodata import IOData
 
 __all__ = ["QualityIssue", "check_data", "screen"]
@@ -162,6 +163,8 @@ def check_data(data: IOData, nmax: int | None = None) -> list[QualityIssue]:
     """
     if not isinstance(data, IOData):
         raise DataError(f"data must be an IOData, got {type(data).__name__}")
+    if nmax is not None:
+        nmax = integer("nmax", nmax, low=1)
     issues = []
     dead_u, dead_y = _constant(data.u), _constant(data.y)
     for name, dead in zip(data.input_names, dead_u):
