@@ -69,6 +69,7 @@ def test_one_sample_is_a_record_but_not_enough_to_identify():
     (lambda d: moli.check_data(d.y), "data must be an IOData"),
     (lambda d: moli.to_dataframe(d.y), "data must be an IOData"),
     (lambda d: moli.read_data(5), "path must be a str or Path"),
+    (lambda d: moli.from_dataframe(d.y, ["u1"], ["y1"]), "frame must be a pandas DataFrame"),
 ])
 def test_bad_arguments_of_record_functions(call, message):
     with pytest.raises(DataError, match=message):

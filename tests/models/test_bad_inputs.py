@@ -48,6 +48,7 @@ def test_a_bad_model_argument_is_refused(kwargs, message):
     (lambda m: m.simulate(np.ones(10), "abc"), "x0 must be an array of real"),
     (lambda m: m.markov("a"), "count must be an integer"),
     (lambda m: m.markov(0), "count must be an integer of at least 1"),
+    (lambda m: m.save(3), "path must be a str or Path"),
 ])
 def test_bad_arguments_of_model_methods(call, message):
     with pytest.raises(DataError, match=message):

@@ -271,6 +271,8 @@ class StateSpaceModel(Dimensions):
 
     def save(self, path: str | Path) -> None:
         """Write the model to a JSON file (read it back with :func:`moli.load_model`)."""
+        if not isinstance(path, (str, Path)):
+            raise DataError(f"path must be a str or Path, got {type(path).__name__}")
         Path(path).write_text(json.dumps(self.to_dict(), indent=1))
 
     # Delays, frequency response and continuous time (docs/diagnostics.md). The delays
