@@ -53,3 +53,17 @@ def test_identify_leaves_the_callers_arrays_and_options_alone():
     moli.identify(record, options=opts)
     assert np.array_equal(y, DATA.y) and np.array_equal(u, DATA.u)
     assert opts == moli.IdentifyOptions(nmax=3)
+
+
+@pytest.mark.parametrize("x0, message", [
+    ("abc", "x0 must be an array of real"),
+    ([0.0] * 6, "x0 must be 7 finite numbers"),
+    ([np.nan] * 7, "x0 must be 7 finite numbers"),
+    ([1j] * 7, "x0 must be real"),
+])
+def test_the_twin_rotor_refuses_a_bad_initial_state(x0, message):
+    from moli.systems import TwinRotor, TwinRotorError
+
+    rig = TwinRotor()
+    with pytest.raises(TwinRotorError, match=message):
+        rig.reset(x0)
