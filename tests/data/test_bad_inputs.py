@@ -82,3 +82,8 @@ def test_nothing_the_caller_passed_is_changed():
     data.remove_means()
     moli.check_data(data, 3)
     assert np.array_equal(y, Y) and np.array_equal(u, U)
+
+
+@pytest.mark.parametrize("Ts", [0.5, np.float32(0.5), np.array(0.5), 1])
+def test_a_number_of_any_numeric_type_is_a_sampling_period(Ts):
+    assert moli.IOData(Y, U, Ts).Ts == float(Ts)

@@ -16,6 +16,11 @@ from ..errors import DataError, MoliError
 __all__ = ["real_number", "integer", "period", "real_array", "name_list"]
 
 
+def _scalar(value: object) -> object:
+    """A 0-d array's item (``np.array(0.5)`` is a number); anything else as given."""
+    return value.item() if isinstance(value, np.ndarray) and value.ndim == 0 else value
+
+
 def real_number(name: str, value: object, *, error: type[MoliError] = DataError,
                 low: float | None = None, low_open: bool = False, high: float | None = None) -> float:
     """``value`` as a finite float in ``[low, high]`` (``(low, high]`` when ``low_open``).
@@ -23,6 +28,7 @@ def real_number(name: str, value: object, *, error: type[MoliError] = DataError,
     Text, booleans, None, complex numbers and arrays are refused: a number given as
     text is a mistake to report, not to guess at.
     """
+    value = _scalar(value)
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, Real) or not np.isfinite(value):
         raise error(f"{name} must be a finite real number, got {value!r}")
     number = float(value)
@@ -36,6 +42,7 @@ def real_number(name: str, value: object, *, error: type[MoliError] = DataError,
 
 def integer(name: str, value: object, *, error: type[MoliError] = DataError, low: int | None = None) -> int:
     """``value`` as an int of at least ``low`` (a float such as 3.0 is refused too)."""
+    value = _scalar(value)
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, Integral):
         raise error(f"{name} must be an integer, got {value!r}")
     if low is not None and value < low:
@@ -45,6 +52,7 @@ def integer(name: str, value: object, *, error: type[MoliError] = DataError, low
 
 def period(value: object, *, error: type[MoliError] = DataError, name: str = "Ts") -> float:
     """A sampling period: a positive finite number."""
+    value = _scalar(value)
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, Real) or not (np.isfinite(value) and value > 0):
         raise error(f"{name} must be a positive finite number, got {value!r}")
     return float(value)
@@ -62,7 +70,7 @@ def real_array(name: str, value: object, *, error: type[MoliError] = DataError, 
         raw = np.asarray(value)
     except ValueError as exc:  # ragged nested lists
         raise error(f"{name} must be a rectangular array of real numbers: {exc}") from None
-    if raw.dtype.kind == "c" or any(isinstance(x, complex) for x in np.ravel(raw) if raw.dtype == object):
+    if raw.dtype.kind == "c" or raw.dtype == object and any(isinstance(x, complex) for x in raw.flat):
         raise error(f"{name} must be real, got complex values (take .real or abs() first if that is meant)")
     if raw.dtype.kind not in "biuf":
         try:
