@@ -55,6 +55,10 @@ def test_bad_arguments_of_model_methods(call, message):
         call(moli.StateSpaceModel(A, B, C))
 
 
+def test_an_empty_input_simulates_to_an_empty_output():
+    assert moli.StateSpaceModel(A, B, C).simulate(np.zeros((0, 1))).shape == (0, 1)
+
+
 def test_simulate_leaves_its_arguments_alone():
     u, x0 = np.arange(10.0), np.array([2.0])
     moli.StateSpaceModel(A, B, C).simulate(u, x0)

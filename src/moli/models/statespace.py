@@ -158,6 +158,8 @@ class StateSpaceModel(Dimensions):
         ndarray, shape (N, p)
         """
         uu = shift_inputs(as_signal("u", u, self.m), self.input_delays)
+        if uu.shape[0] == 0:  # no samples in, none out (a stream's empty chunk)
+            return np.zeros((0, self.p))
         start = None
         if x0 is not None:
             start = real_array("x0", x0).reshape(-1)
