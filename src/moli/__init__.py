@@ -28,6 +28,7 @@ _HOMES = {
     "IOData": "data", "merge": "data", "read_data": "data", "from_dataframe": "data", "to_dataframe": "data", "load_daisy": "data", "list_daisy": "data",
     "DatasetChecksumError": "data", "DatasetUnavailableError": "data",
     "random_binary_signal": "data", "check_data": "data",
+    "flag_outliers": "data", "remove_outliers": "data", "OutlierReport": "data",
     "StateSpaceModel": "models", "ContinuousModel": "models", "load_model": "models",
     "Comparison": "validation", "compare": "validation", "cost_j": "validation",
     "nrmse_fit": "validation", "vaf": "validation", "predict": "validation",
@@ -55,8 +56,9 @@ __all__ = [
 if TYPE_CHECKING:  # what the lazy names are, for type checkers and IDEs
     from . import app, control, data, method, models, streaming, systems, validation
     from .data import (
-        DatasetChecksumError, DatasetUnavailableError, IOData, from_dataframe, list_daisy,
-        load_daisy, merge, random_binary_signal, read_data, to_dataframe,
+        DatasetChecksumError, DatasetUnavailableError, IOData, OutlierReport, flag_outliers,
+        from_dataframe, list_daisy, load_daisy, merge, random_binary_signal, read_data,
+        remove_outliers, to_dataframe,
     )
     from .method import (
         FleetResult, IdentificationResult, IdentifyOptions, PathStep, divisor, divisors, estimate,

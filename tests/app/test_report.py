@@ -72,6 +72,18 @@ def test_validation_caption_says_in_which_units_the_outputs_are_drawn():
     assert "the recorded values (IdentifyOptions.center is off" in validation_caption(raw)
 
 
+def test_the_validation_figure_draws_what_its_caption_says():
+    # "deviations from the estimation record's means": the measured curve is the raw
+    # validation output minus the estimation mean, not minus its own mean
+    est, val = moli.example_data(N=300, seed=2).split(0.5)
+    result = moli.identify(est, val, nmax=3)
+    figure = figures.measured_vs_simulated(result.validation, moli.compare(result.model, result.validation))
+    for i, ax in enumerate(figure.axes[: val.p]):
+        # one subtraction of round-off
+        np.testing.assert_allclose(ax.lines[0].get_ydata(), val.y[:, i] - est.y[:, i].mean(), atol=1e-12)
+    assert abs(val.y[:, 0].mean() - est.y[:, 0].mean()) > 1e-3  # the two centrings differ here
+
+
 def six_output_record() -> moli.IOData:
     """A random stable 6-output, 2-input plant of order 8 with long channel names."""
     rng = np.random.default_rng(8)

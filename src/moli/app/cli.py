@@ -22,6 +22,7 @@ from .._version import __version__
 from ..data.daisy import daisy_path, load_daisy
 from ..data.files import file_sha256, fingerprint, read_data
 from ..data.iodata import IOData
+from ..data.outliers import flag_outliers, remove_outliers
 from ..errors import DataError, IrregularSamplingWarning, MoliError, OptionError
 from ..method.identification import IdentificationResult, identify
 from ..method.options import PRESETS, IdentifyOptions
@@ -32,6 +33,7 @@ from ..systems.plant import example_data
 from ..validation.comparison import X0_CHOICES, compare
 from .figures import measured_vs_simulated
 from .fleet_cli import fleet_commands
+from .fleet_report import SCORES
 from .report import write_report
 
 __all__ = ["cli", "main", "describe", "options_from_flags"]
@@ -45,11 +47,26 @@ DEMO_NMAX = 6
 
 
 class _Group(click.Group):
-    """Turns bad input into one line on stderr and exit code 2."""
+    """Turns bad input into one line on stderr and exit code 2.
+
+    Flags click cannot parse (``--nmax abc``, an unknown option or command) are bad
+    input too: one line, without click's usage block.
+    """
+
+    def make_context(self, info_name: str | None, args: list[str], parent: click.Context | None = None,
+                     **extra: Any) -> click.Context:
+        try:
+            return super().make_context(info_name, args, parent, **extra)
+        except click.UsageError as exc:
+            click.echo(f"moli: error: {exc.format_message()}", err=True)
+            sys.exit(USAGE_ERROR)
 
     def invoke(self, ctx: click.Context) -> Any:
         try:
             return super().invoke(ctx)
+        except click.UsageError as exc:
+            click.echo(f"moli: error: {exc.format_message()}", err=True)
+            ctx.exit(USAGE_ERROR)
         except (MoliError, OSError) as exc:
             click.echo(f"moli: error: {exc}", err=True)
             ctx.exit(USAGE_ERROR)
@@ -243,6 +260,9 @@ def demo(out_dir: Path, nmax: int, all_lists: bool) -> None:
                    "or paper (the published MOLI-ZOFT) [default: default].")
 @click.option("--x0", type=click.Choice(X0_CHOICES),
               help="Initial state of the validation simulations [default: zero].")
+@click.option("--outliers", type=click.Choice(["warn", "remove"]), default="warn", show_default=True,
+              help="Samples far from their neighbours (docs/data.md): warn, or replace them by linear "
+                   "interpolation before identifying.")
 @click.option("--out", "model_path", default="model.json", show_default=True,
               type=click.Path(path_type=Path), help="Model file to write (JSON).")
 @click.option("--report", "report_dir", type=click.Path(path_type=Path),
@@ -253,7 +273,7 @@ def demo(out_dir: Path, nmax: int, all_lists: bool) -> None:
 def fit(data_file: Path | None, inputs: str | None, outputs: str | None, daisy: str | None,
         data_dir: Path | None, ts: float | None, options_file: Path | None, nmax: int | None,
         order: int | None, fraction: float, seed: int | None, preset: str | None, x0: str | None,
-        model_path: Path, report_dir: Path | None, all_lists: bool, **reading: Any) -> None:
+        outliers: str, model_path: Path, report_dir: Path | None, all_lists: bool, **reading: Any) -> None:
     """Identify a model from a data file (or a DaISy set).
 
     DATA is a text table (.csv .tsv .txt), an Excel workbook (.xlsx), Parquet, .npz or
@@ -271,8 +291,12 @@ def fit(data_file: Path | None, inputs: str | None, outputs: str | None, daisy: 
         data = _read(data_file, _names(inputs), _names(outputs), ts, reading)
         source = str(data_file)
     click.echo(f"{source}: {data}")
+    removed = flag_outliers(data).counts if outliers == "remove" else {}
+    if removed:
+        data = remove_outliers(data)
+        click.echo(f"outliers replaced by linear interpolation: {removed}")
     result = _identify(data, fraction, options)
-    result.model.info["data"].update(source=source, file_sha256=file_sha256(data_file))
+    result.model.info["data"].update(source=source, file_sha256=file_sha256(data_file), outliers_removed=removed)
     _finish(result, model_path, report_dir, all_lists, data_file)
 
 
@@ -303,6 +327,7 @@ def validate(model_file: Path, data_file: Path, inputs: str | None, outputs: str
     for name, v, f in zip(data.output_names, comparison.vaf, comparison.fit):
         click.echo(f"{name:<16}{v:>9.2f}{f:>9.2f}")
     click.echo(f"{'mean':<16}{comparison.mean_vaf:>9.2f}{np.mean(comparison.fit):>9.2f}")
+    click.echo(SCORES)
     plot.parent.mkdir(parents=True, exist_ok=True)
     measured_vs_simulated(data, comparison).savefig(plot, dpi=110)
     click.echo(f"figure written to {plot}")

@@ -23,7 +23,7 @@ from ..method.identification import IdentificationResult
 from ..method.options import PRESETS, IdentifyOptions
 from ..models.storage import load_model
 from ..validation.comparison import X0_CHOICES, compare
-from .fleet_report import write_summary
+from .fleet_report import SCORES, write_summary
 
 __all__ = ["fleet_commands", "match_files"]
 
@@ -136,7 +136,8 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
         csv_path, html_path = write_summary(
             rows, FIT_COLUMNS, out_dir, "summary", "moli fit-many", "fit",
             notes=[f"fit and vaf: mean over the outputs of the selected model's NRMSE fit and VAF "
-                   f"on the held-out tail, percent; run on {fleet.backend} in {fleet.seconds:.1f} s"],
+                   f"on the held-out tail, percent; run on {fleet.backend} in {fleet.seconds:.1f} s",
+                   SCORES],
         )
         failed = fleet.failures
         click.echo(f"{len(fleet)} records on {fleet.backend} in {fleet.seconds:.1f} s: "
@@ -180,7 +181,7 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
             flagged=flagged,
             notes=[f"fit: mean NRMSE fit, percent, simulation from the {x0} initial state; "
                    f"dropped: the fit fell by more than {max_drop:g} points from fit_before, "
-                   "the fit fit-many saved with the model"],
+                   "the fit fit-many saved with the model", SCORES],
         )
         click.echo(f"{'name':<24}{'fit before':>12}{'fit now':>10}{'drop':>8}  status")
         for row in sorted(rows, key=lambda r: -(r.get("drop") or 0)):

@@ -9,7 +9,14 @@ from typing import Any, Mapping, Sequence
 
 from .._version import __version__
 
-__all__ = ["write_summary"]
+__all__ = ["SCORES", "write_summary"]
+
+# What VAF and fit are, wherever a table shows them without the report's longer note.
+SCORES = ("VAF = 100 (1 - var(y - yhat) / var(y)), clipped at 0: a model no better than the "
+          "output's mean scores 0, so one diverging output cannot drag a mean arbitrarily far "
+          "down; fit = 100 (1 - |y - yhat| / |y - mean(y)|), not clipped (negative: worse than the "
+          "mean). yhat is a simulation driven by the measured inputs alone, not a prediction; "
+          "percent, 100 is perfect")
 
 STYLE = """
 body { font-family: sans-serif; max-width: 70em; margin: 2em auto; color: #222; }

@@ -7,6 +7,7 @@ from .daisy import (
 )
 from .files import file_sha256, fingerprint, read_data, to_dataframe
 from .iodata import IOData, merge
+from .outliers import OutlierReport, flag_outliers, remove_outliers
 from .quality import QualityIssue, check_data, screen
 from .signals import SignalError, random_binary_signal
 from .tables import from_columns, from_dataframe
@@ -18,5 +19,5 @@ __all__ = [
     "file_sha256", "detect_encoding", "SamplingGap", "find_gaps",
     "DaisyInfo", "DatasetChecksumError", "DatasetUnavailableError", "daisy_path", "daisy_url",
     "list_daisy", "load_daisy", "SignalError", "random_binary_signal", "QualityIssue", "check_data",
-    "screen", "RecordChunk", "list_chunks",
+    "screen", "OutlierReport", "flag_outliers", "remove_outliers", "RecordChunk", "list_chunks",
 ]

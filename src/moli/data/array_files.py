@@ -47,6 +47,9 @@ def array_table(arrays: dict[str, object], source: str) -> Table:
         if array.ndim == 2 and 1 in array.shape:
             array = array.ravel()  # MATLAB stores vectors as (N, 1) or (1, N)
         if name in ("u", "y") and array.ndim in (1, 2):
+            if 0 in array.shape:
+                raise DataError(f"{source}: {name} has shape {array.shape}; it needs at least one "
+                                "sample (row) and one channel (column)")
             matrix = array.reshape(len(array), -1)
             marked[name] = tuple(f"{name}{k + 1}" for k in range(matrix.shape[1]))
             columns.update(zip(marked[name], matrix.T))

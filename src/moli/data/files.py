@@ -11,6 +11,7 @@ each error means.
 from __future__ import annotations
 
 import hashlib
+import os
 from pathlib import Path
 from typing import TYPE_CHECKING, Sequence
 
@@ -119,6 +120,8 @@ def read_data(
     IOData(N=3, p=1, m=1, Ts=0.1, outputs=['y1'], inputs=['u1'])
     """
     request = check_request(inputs, outputs, Ts, time_column, time_format, time_tolerance)
+    if not isinstance(path, (str, os.PathLike)):
+        raise DataError(f"path must be a str or Path, got {type(path).__name__}")
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in SUFFIXES:
@@ -194,6 +197,8 @@ def to_dataframe(data: IOData) -> "pd.DataFrame":
     """
     import pandas as pd
 
+    if not isinstance(data, IOData):
+        raise DataError(f"data must be an IOData, got {type(data).__name__}")
     values = np.concatenate([data.y, data.u], axis=1)
     time = data.time()
     if data.n_segments > 1:

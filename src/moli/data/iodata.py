@@ -8,6 +8,7 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import DataError
+from .arguments import name_list, period, real_array
 from .segments import check_starts, remove_missing_rows, segment_bounds, starts_after_cut, starts_in_slice
 
 __all__ = ["as_signal", "stack_signals", "IOData", "merge", "longest_segment", "require_one_segment"]
@@ -24,17 +25,14 @@ def as_signal(name: str, values: object, channels: int | None = None, missing: b
     expected shape when the values are not numeric, not finite or not of that shape.
     With ``missing``, NaN (a missing sample) is let through; inf never is.
     """
-    try:
-        array = np.array(values, dtype=float, copy=True)
-    except (TypeError, ValueError) as exc:
-        raise DataError(f"{name} must be numeric: {exc}") from None
+    array = real_array(name, values, finite=False)
     if array.ndim == 1:
         array = array[:, None]
     expected = "(N, channels)" if channels is None else f"(N, {channels})"
-    if array.ndim != 2 or (channels is not None and array.shape[1] != channels):
+    if array.ndim != 2 or (channels is not None and array.shape[1] != channels) or array.shape[1] == 0:
         raise DataError(
             f"{name} must be 1-D (one channel) or 2-D with shape {expected}, "
-            f"time along axis 0; got an array of shape {array.shape}"
+            f"time along axis 0, with at least one channel; got an array of shape {array.shape}"
         )
     bad_values = np.isinf(array) if missing else ~np.isfinite(array)
     if bad_values.any():
@@ -58,12 +56,7 @@ def stack_signals(y: object, u: object, p: int, m: int) -> np.ndarray:
 def _names(given: Sequence[str] | None, count: int, prefix: str, what: str) -> tuple[str, ...]:
     if given is None:
         return tuple(f"{prefix}{i + 1}" for i in range(count))
-    names = tuple(str(n) for n in given)
-    if len(names) != count:
-        raise DataError(f"{what} has {len(names)} names for {count} channels")
-    if len(set(names)) != len(names):
-        raise DataError(f"{what} must be distinct, got {names}")
-    return names
+    return name_list(what, given, count)
 
 
 class IOData:
@@ -122,10 +115,9 @@ class IOData:
                 f"y has {y_arr.shape[0]}, u has {u_arr.shape[0]} "
                 "(time runs along axis 0; transpose if channels are along it)"
             )
-        if not (np.isfinite(Ts) and Ts > 0):
-            raise DataError(f"Ts must be a positive finite number, got {Ts!r}")
         if y_arr.shape[0] == 0:
-            raise DataError("y and u hold no samples")
+            raise DataError("y and u hold no samples: a record needs at least one (shape (N, channels), N >= 1)")
+        Ts = period(Ts)
         starts = (0,) if segment_starts is None else check_starts(segment_starts, y_arr.shape[0])
         y_arr, u_arr, self._starts = remove_missing_rows(y_arr, u_arr, starts)
         self._y = y_arr
@@ -251,6 +243,8 @@ class IOData:
         -------
         head, tail : IOData
         """
+        if isinstance(at, bool) or not isinstance(at, (int, float, np.integer, np.floating)) or not np.isfinite(at):
+            raise DataError(f"split point must be a sample index or a fraction in (0, 1), got {at!r}")
         if isinstance(at, float) and not at.is_integer():
             if not 0 < at < 1:
                 raise DataError(f"a fractional split must lie in (0, 1), got {at}")
@@ -280,10 +274,10 @@ class IOData:
             Centred data; ``y_offset``/``u_offset`` hold the total offsets removed
             from the original signals, so ``centred.y + centred.y_offset`` restores them.
         """
-        dy = self._y.mean(axis=0) if y_offset is None else np.asarray(y_offset, float) - self.y_offset
-        du = self._u.mean(axis=0) if u_offset is None else np.asarray(u_offset, float) - self.u_offset
-        if dy.shape != (self.p,) or du.shape != (self.m,):
-            raise DataError(f"offsets must have shapes ({self.p},) and ({self.m},)")
+        dy = self._y.mean(axis=0) if y_offset is None else \
+            real_array("y_offset", y_offset, shape=(self.p,)) - self.y_offset
+        du = self._u.mean(axis=0) if u_offset is None else \
+            real_array("u_offset", u_offset, shape=(self.m,)) - self.u_offset
         return self._with(self._y - dy, self._u - du, self.y_offset + dy, self.u_offset + du)
 
 

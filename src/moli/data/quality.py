@@ -2,7 +2,7 @@
 
 :func:`check_data` lists what would make a model unreliable or misleading: constant
 channels, duplicate or collinear inputs, inputs that do not excite the orders asked
-for, clipped (saturated) and coarsely quantized channels. :func:`screen` raises for
+for, clipped (saturated) and coarsely quantized channels, outliers (moli.data.outliers). :func:`screen` raises for
 what makes identification meaningless (a constant input) and warns about the rest
 with :class:`~moli.errors.DataQualityWarning`; :func:`moli.identify` calls it on the
 estimation record.
@@ -17,7 +17,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import DataError, DataQualityWarning
+from .arguments import integer
 from .iodata import IOData
+from .outliers import flag_outliers
 
 __all__ = ["QualityIssue", "check_data", "screen"]
 
@@ -45,7 +47,7 @@ class QualityIssue:
     Attributes
     ----------
     kind : str
-        "constant", "collinear", "excitation", "clipped" or "quantized".
+        "constant", "collinear", "excitation", "clipped", "quantized" or "outliers".
     channels : tuple of str
         The channels concerned.
     message : str
@@ -167,6 +169,8 @@ def check_data(data: IOData, nmax: int | None = None) -> list[QualityIssue]:
     """
     if not isinstance(data, IOData):
         raise DataError(f"data must be an IOData, got {type(data).__name__}")
+    if nmax is not None:
+        nmax = integer("nmax", nmax, low=1)
     issues = []
     dead_u, dead_y = _constant(data.u), _constant(data.y)
     for name, dead in zip(data.input_names, dead_u):
@@ -195,7 +199,18 @@ def check_data(data: IOData, nmax: int | None = None) -> list[QualityIssue]:
             ))
     issues += _clipping_and_levels(data.input_names, data.u, "input")
     issues += _clipping_and_levels(data.output_names, data.y, "output")
-    return issues
+    return issues + _outliers(data)
+
+
+def _outliers(data: IOData) -> list[QualityIssue]:
+    report = flag_outliers(data)
+    return [QualityIssue(
+        "outliers", (name,),
+        f"{'output' if name in data.output_names else 'input'} {name!r} has {count} outlier(s), the "
+        f"first at sample {report.first[name]}: samples more than {report.threshold:g} standard "
+        "deviations from the median of their 7 neighbours; check them, and if they are glitches "
+        "replace them with moli.remove_outliers(data)",
+    ) for name, count in report.counts.items()]
 
 
 def screen(data: IOData, nmax: int | None = None, stacklevel: int = 2) -> list[QualityIssue]:

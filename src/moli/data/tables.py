@@ -364,4 +364,6 @@ def from_dataframe(
     IOData(N=3, p=1, m=1, Ts=0.2, outputs=['y'], inputs=['u'])
     """
     request = check_request(inputs, outputs, Ts, time_column, time_format, time_tolerance)
+    if not all(hasattr(frame, name) for name in ("columns", "index")):
+        raise DataError(f"frame must be a pandas DataFrame, got {type(frame).__name__}")
     return record(frame_table(frame, "the data frame"), request)

@@ -22,6 +22,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..data.arguments import integer, period, real_number
 from ..errors import FilterError
 from .structure import Indices
 
@@ -41,10 +42,8 @@ def _check_filter_options(indices: Sequence[int], Ts: float, s: float) -> tuple[
     indices = tuple(int(v) for v in indices)
     if not indices or min(indices) < 1:
         raise FilterError(f"indices must be positive integers, got {indices}")
-    if not (np.isfinite(s) and s > 1):
-        raise FilterError(f"the spacing factor s must be > 1, got {s}")
-    if not (np.isfinite(Ts) and Ts > 0):
-        raise FilterError(f"Ts must be positive, got {Ts}")
+    real_number("the spacing factor s", s, error=FilterError, low=1.0, low_open=True)
+    period(Ts, error=FilterError)
     return indices
 
 
@@ -56,8 +55,8 @@ def filter_roots(
     See :func:`filter_polynomial` for the parameters.
     """
     indices = _check_filter_options(indices, Ts, s)
-    if not (np.isfinite(wc) and wc > 0 and np.isfinite(zeta) and zeta > 0):
-        raise FilterError(f"wc and zeta must be positive and finite, got wc={wc}, zeta={zeta}")
+    for name, value in (("wc", wc), ("zeta", zeta)):
+        real_number(name, value, error=FilterError, low=0.0, low_open=True)
     return _roots_rows(np.array([[wc, zeta]], float), indices, Ts, s)[0]
 
 
@@ -260,7 +259,7 @@ def divisor(alpha: Sequence[float], degree: int) -> np.ndarray:
     """
     coeffs = check_alpha(alpha)
     nbar = coeffs.size - 1
-    if not 1 <= degree <= nbar:
+    if not 1 <= integer("degree", degree, error=FilterError) <= nbar:
         raise FilterError(f"a divisor of alpha (degree {nbar}) needs degree 1..{nbar}, got {degree}")
     if degree == nbar:
         return coeffs

@@ -199,6 +199,8 @@ def identify(
     opts = _options(options, overrides)
     if not isinstance(data, IOData):
         raise DataError(f"data must be an IOData, got {type(data).__name__}")
+    if progress is not None and not callable(progress):
+        raise OptionError(f"progress must be a callable taking a PathStep, got {type(progress).__name__}")
     if validation is None:
         estimation, validation = data.split(1.0 - HOLDOUT_FRACTION)
         source = f"held out: last {HOLDOUT_FRACTION:.0%} of the record"

@@ -174,7 +174,7 @@ class FilterScorer:
     ) -> None:
         self.max_radius = max_radius
         self.trend_degree = check_trend_degree(trend_degree)
-        if x0 not in X0_CHOICES:
+        if not isinstance(x0, str) or x0 not in X0_CHOICES:
             raise OptionError(f"x0 must be one of {X0_CHOICES}, got {x0!r}")
         self.x0 = x0
         self.z = z

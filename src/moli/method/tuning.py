@@ -11,6 +11,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..data.arguments import real_array
 from ..errors import OptionError
 from .scoring import FilterScorer, score_lists
 
@@ -76,7 +77,7 @@ def grid(wcs: Sequence[float], zetas: Sequence[float]) -> np.ndarray:
 
 def check_omega(omega: object) -> np.ndarray:
     """Validate a candidate set: finite positive rows ``(wc, zeta)``."""
-    array = np.array(omega, dtype=float)
+    array = real_array("omega", omega, error=OptionError, finite=False)
     if array.ndim != 2 or array.shape[1] != 2 or array.shape[0] < 1:
         raise OptionError(f"omega must have shape (R, 2) with rows (wc, zeta), got {array.shape}")
     if not np.all(np.isfinite(array)) or np.any(array <= 0):

@@ -6,18 +6,45 @@ from typing import Sequence
 
 import numpy as np
 
+from ..data.arguments import integer, name_list, real_array
 from ..errors import DataError
 
-__all__ = ["matrix", "covariance", "checked_divisors", "Dimensions"]
+__all__ = ["matrix", "covariance", "checked_divisors", "channel_names", "indices_of", "vector", "Dimensions"]
 
 
 def matrix(name: str, value: object, shape: tuple[int, int] | None = None) -> np.ndarray:
-    array = np.array(value, dtype=float, ndmin=2)
+    array = np.array(real_array(name, value, finite=False), ndmin=2)
     if array.ndim != 2 or not np.all(np.isfinite(array)):
         raise DataError(f"{name} must be a finite 2-D matrix, got shape {array.shape}")
     if shape is not None and array.shape != shape:
         raise DataError(f"{name} must have shape {shape}, got {array.shape}")
     return array
+
+
+def channel_names(given: Sequence[str] | None, count: int, prefix: str, what: str) -> tuple[str, ...]:
+    """``given`` checked as ``count`` distinct names, or ``prefix1, prefix2, ...``."""
+    if given is None:
+        return tuple(f"{prefix}{i + 1}" for i in range(count))
+    return name_list(what, given, count)
+
+
+def indices_of(given: object) -> tuple[int, ...] | None:
+    """A list of observability indices: positive integers, or None."""
+    if given is None:
+        return None
+    if isinstance(given, (str, bytes)) or not isinstance(given, (list, tuple, np.ndarray)):
+        raise DataError(f"indices must be a list of positive integers, got {given!r}")
+    return tuple(integer("indices", v, low=1) for v in given)
+
+
+def vector(name: str, value: object | None, count: int) -> np.ndarray:
+    """A finite float vector of ``count`` entries (zeros when None)."""
+    if value is None:
+        return np.zeros(count)
+    array = real_array(name, value)
+    if array.size != count:
+        raise DataError(f"{name} must have {count} entries (one per channel), got shape {array.shape}")
+    return array.reshape(count)
 
 
 def covariance(value: object, p: int) -> np.ndarray:

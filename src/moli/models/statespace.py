@@ -10,10 +10,11 @@ from typing import Any, Sequence
 import numpy as np
 
 from .._version import __version__
+from ..data.arguments import integer, period, real_array
 from ..data.iodata import as_signal
 from ..errors import DataError, UnstableModelWarning
 from .bands import magnitude_bands, step_bands
-from .checks import Dimensions, checked_divisors, covariance, matrix
+from .checks import Dimensions, channel_names, checked_divisors, covariance, indices_of, matrix, vector
 from .delays import check_delays, delay_states, shift_inputs
 from .frequency import check_omega, frequency_response
 from .interop import to_control
@@ -101,17 +102,14 @@ class StateSpaceModel(Dimensions):
             raise DataError(f"B needs {n} rows and C {n} columns, got {self.B.shape} and {self.C.shape}")
         p, m = self.C.shape[0], self.B.shape[1]
         self.D = np.zeros((p, m)) if D is None else matrix("D", D, (p, m))
-        if not (np.isfinite(Ts) and Ts > 0):
-            raise DataError(f"Ts must be positive, got {Ts!r}")
-        self.Ts = float(Ts)
-        self.output_names = tuple(output_names) if output_names is not None else tuple(f"y{i + 1}" for i in range(p))
-        self.input_names = tuple(input_names) if input_names is not None else tuple(f"u{i + 1}" for i in range(m))
-        if len(self.output_names) != p or len(self.input_names) != m:
-            raise DataError(f"need {p} output names and {m} input names")
-        self.indices = None if indices is None else tuple(int(v) for v in indices)
-        self.alpha = None if alpha is None else np.array(alpha, dtype=float)
-        self.y_offset = np.zeros(p) if y_offset is None else np.array(y_offset, dtype=float).reshape(p)
-        self.u_offset = np.zeros(m) if u_offset is None else np.array(u_offset, dtype=float).reshape(m)
+        self.Ts = period(Ts)
+        self.output_names = channel_names(output_names, p, "y", "output_names")
+        self.input_names = channel_names(input_names, m, "u", "input_names")
+        self.indices = indices_of(indices)
+        self.alpha = None if alpha is None else real_array("alpha", alpha, ndim=1)
+        self.y_offset, self.u_offset = vector("y_offset", y_offset, p), vector("u_offset", u_offset, m)
+        if info is not None and not isinstance(info, dict):
+            raise DataError(f"info must be a dict, got {type(info).__name__}")
         self.info = dict(info or {})
         self.divisors = None if divisors is None else checked_divisors(divisors, self.indices, self.p)
         if (K is None) != (noise_cov is None):
@@ -160,9 +158,11 @@ class StateSpaceModel(Dimensions):
         ndarray, shape (N, p)
         """
         uu = shift_inputs(as_signal("u", u, self.m), self.input_delays)
+        if uu.shape[0] == 0:  # no samples in, none out (a stream's empty chunk)
+            return np.zeros((0, self.p))
         start = None
         if x0 is not None:
-            start = np.array(x0, dtype=float).reshape(-1)
+            start = real_array("x0", x0).reshape(-1)
             if start.shape != (self.n,):
                 raise DataError(f"x0 must have {self.n} entries, got {np.shape(x0)}")
             start = start[None]
@@ -179,7 +179,7 @@ class StateSpaceModel(Dimensions):
 
     def markov(self, count: int) -> np.ndarray:
         """Markov parameters ``D, C B, C A B, ...``: shape (count, p, m), entry k is h_k."""
-        out = np.empty((count, self.p, self.m))
+        out = np.empty((integer("count", count, low=1), self.p, self.m))
         out[0] = self.D
         row = self.C
         for k in range(1, count):
@@ -273,6 +273,8 @@ class StateSpaceModel(Dimensions):
 
     def save(self, path: str | Path) -> None:
         """Write the model to a JSON file (read it back with :func:`moli.load_model`)."""
+        if not isinstance(path, (str, Path)):
+            raise DataError(f"path must be a str or Path, got {type(path).__name__}")
         Path(path).write_text(json.dumps(self.to_dict(), indent=1))
 
     # Delays, frequency response and continuous time (docs/diagnostics.md). The delays

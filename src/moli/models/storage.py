@@ -15,7 +15,10 @@ __all__ = ["model_from_dict", "load_model"]
 
 def model_from_dict(content: dict[str, Any]) -> StateSpaceModel:
     """Rebuild a model from :meth:`StateSpaceModel.to_dict` output, checking it."""
-    if not isinstance(content, dict) or content.get("format") != FILE_FORMAT:
+    if not isinstance(content, dict):
+        raise ModelFileError(f"not a moli model file: it holds a JSON {type(content).__name__}, "
+                             "not an object with 'format': 'moli-model'")
+    if content.get("format") != FILE_FORMAT:
         raise ModelFileError("not a moli model file (missing 'format': 'moli-model')")
     major = str(content.get("version", "")).split(".")[0]
     if major != __version__.split(".")[0]:
@@ -36,6 +39,8 @@ def model_from_dict(content: dict[str, Any]) -> StateSpaceModel:
         raise ModelFileError(f"model file lacks the field {exc}") from None
     except DataError as exc:
         raise ModelFileError(f"model file is inconsistent: {exc}") from None
+    except (TypeError, ValueError) as exc:  # a field of a JSON type no check foresaw
+        raise ModelFileError(f"model file is inconsistent: {exc}") from None
 
 
 def load_model(path: str | Path) -> StateSpaceModel:
@@ -49,10 +54,14 @@ def load_model(path: str | Path) -> StateSpaceModel:
     -------
     StateSpaceModel
     """
+    if not isinstance(path, (str, Path)):
+        raise ModelFileError(f"path must be a str or Path, got {type(path).__name__}")
     try:
         content = json.loads(Path(path).read_text())
     except FileNotFoundError:
         raise ModelFileError(f"no model file at {path}") from None
+    except OSError as exc:  # a folder, no permission
+        raise ModelFileError(f"cannot read the model file {path}: {exc.strerror}") from None
     except (json.JSONDecodeError, UnicodeDecodeError) as exc:
         raise ModelFileError(f"{path} is not a JSON model file: {exc}") from None
     return model_from_dict(content)

@@ -24,11 +24,10 @@ from typing import Sequence
 
 import numpy as np
 
-from ..data.iodata import stack_signals
 from ..errors import DataError, IllConditionedWarning, OptionError
 from ..method.estimation import COND_LIMIT, check_sample_count, realize, solve_batch
 from ..models.statespace import StateSpaceModel
-from .recursive import FixedFilterEstimator
+from .recursive import FixedFilterEstimator, checked_chunk
 
 __all__ = ["ChunkedEstimator"]
 
@@ -135,7 +134,7 @@ class ChunkedEstimator(FixedFilterEstimator):
             Per distinct index ``l`` (ascending), ``(T, s)`` of shapes (2 l, 2 l) and
             (2 l, p + m): a chunk that starts in state ``S`` ends in ``T @ S + s``.
         """
-        z = stack_signals(y, u, len(self.indices), self.m)
+        z = checked_chunk(y, u, len(self.indices), self.m)
         return [(T[0], s[0]) for T, s in self._bank.state_map(z)]
 
     def merge(self, later: "ChunkedEstimator") -> "ChunkedEstimator":

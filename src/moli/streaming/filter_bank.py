@@ -16,11 +16,10 @@ from typing import Sequence
 
 import numpy as np
 
-from ..data.iodata import stack_signals
 from ..errors import DataError, OptionError
 from ..method.filters import filter_divisors, filter_polynomial
 from ..models.statespace import StateSpaceModel
-from .recursive import BankRls, check_options
+from .recursive import BankRls, check_options, checked_chunk
 from ..models.simulation import simulate_batch
 from ..method.structure import check_indices
 from ..method.tuning import barycenter, check_omega
@@ -108,8 +107,7 @@ class FilterBank:
 
     def update(self, y_k: object, u_k: object) -> "FilterBank":
         """Absorb one sample: outputs ``y_k`` (p,) and inputs ``u_k`` (m,)."""
-        return self.update_many(np.reshape(np.asarray(y_k, dtype=float), (1, -1)),
-                                np.reshape(np.asarray(u_k, dtype=float), (1, -1)))
+        return self.update_many(np.reshape(y_k, (1, -1)), np.reshape(u_k, (1, -1)))
 
     def update_many(self, y: object, u: object) -> "FilterBank":
         """Absorb a chunk of samples, rescoring every ``retune_every`` samples.
@@ -124,7 +122,7 @@ class FilterBank:
         FilterBank
             ``self``.
         """
-        z = stack_signals(y, u, len(self.indices), self.m)
+        z = checked_chunk(y, u, len(self.indices), self.m)
         start = 0
         while start < z.shape[0]:
             # stop at the next multiple of retune_every so scoring sees the right window

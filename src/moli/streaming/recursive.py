@@ -17,8 +17,9 @@ from typing import Sequence
 import numpy as np
 
 from .causal import CausalRegressors
+from ..data.arguments import integer, period
 from ..data.iodata import stack_signals
-from ..errors import OptionError
+from ..errors import DataError, OptionError
 from ..method.estimation import realize
 from ..method.filters import check_alpha, divisors
 from ..models.statespace import StateSpaceModel
@@ -43,6 +44,20 @@ def check_options(forgetting: float, noise_variance: float, p0: float) -> None:
         raise OptionError(f"noise_variance must be positive and finite, got {noise_variance!r}")
     if not (p0 > 0 and not np.isnan(p0)):
         raise OptionError(f"p0 must be positive (inf for no prior), got {p0!r}")
+
+
+def checked_chunk(y: object, u: object, p: int, m: int) -> np.ndarray:
+    """``[y, u]`` of a chunk, every sample checked before any is absorbed.
+
+    A recursive state cannot skip a sample (the filters run through it), so NaN, which
+    marks a missing sample in an :class:`IOData`, is refused here like inf: a chunk
+    with one bad sample leaves the estimator exactly as it was.
+    """
+    z = stack_signals(y, u, p, m)
+    if not np.all(np.isfinite(z)):
+        raise DataError(f"the chunk holds NaN or inf at sample {int(np.argwhere(~np.isfinite(z))[0, 0])}; "
+                        "a streaming estimator needs every sample: split the stream at a gap instead")
+    return z
 
 
 def solve_triangular_batch(factor: np.ndarray, count: int) -> np.ndarray:
@@ -182,11 +197,9 @@ class FixedFilterEstimator:
     ) -> None:
         self.indices = check_indices(indices, len(indices))
         self.alpha = check_alpha(alpha)
-        if int(m) != m or m < 1:
-            raise OptionError(f"m (number of inputs) must be a positive integer, got {m!r}")
+        integer("m (number of inputs)", m, error=OptionError, low=1)
         check_options(forgetting, noise_variance, p0)
-        if not (np.isfinite(Ts) and Ts > 0):
-            raise OptionError(f"Ts must be positive and finite, got {Ts!r}")
+        period(Ts, error=OptionError)
         self.m = int(m)
         self.Ts = float(Ts)
         self._alphas = divisors(self.alpha, self.indices)
@@ -200,7 +213,7 @@ class FixedFilterEstimator:
         return self._bank.samples
 
     def _absorb(self, y: object, u: object) -> None:
-        self._bank.update(stack_signals(y, u, len(self.indices), self.m))
+        self._bank.update(checked_chunk(y, u, len(self.indices), self.m))
 
     def _model(self, A: np.ndarray, B: np.ndarray, C: np.ndarray) -> StateSpaceModel:
         return StateSpaceModel(

@@ -6,6 +6,7 @@ from typing import Protocol, Sequence
 
 import numpy as np
 
+from ..data.arguments import real_array
 from ..data.iodata import IOData
 from ..errors import DataError
 from ..models.statespace import StateSpaceModel
@@ -62,7 +63,10 @@ def experiment(plant: SampledPlant | StateSpaceModel, u: object, seed: int | Non
     >>> experiment(model, [1.0, 1.0, 1.0]).y.ravel()
     array([0. , 1. , 1.5])
     """
-    uu = np.array(u, dtype=float)
+    if not isinstance(plant, StateSpaceModel) and not all(
+            hasattr(plant, name) for name in ("input_names", "output_names", "reset", "measure", "step")):
+        raise DataError(f"plant must be a StateSpaceModel or a SampledPlant, got {type(plant).__name__}")
+    uu = real_array("u", u, finite=False)
     if uu.ndim == 1:
         uu = uu[:, None]
     m = len(plant.input_names)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..data.arguments import integer, real_number
 from ..data.iodata import IOData
 from ..models.statespace import StateSpaceModel
 
@@ -59,7 +60,9 @@ def example_data(N: int = 1000, noise: float = 0.1, seed: int = 0) -> IOData:
     >>> example_data(N=200)
     IOData(N=200, p=3, m=3, Ts=1, outputs=['y1', 'y2', 'y3'], inputs=['u1', 'u2', 'u3'])
     """
-    rng = np.random.default_rng(seed)
+    N = integer("N", N, low=2)
+    noise = real_number("noise", noise, low=0.0)
+    rng = np.random.default_rng(integer("seed", seed, low=0))
     plant = example_plant()
     hold = rng.integers(1, 6, size=(N, 3))
     u = np.empty((N, 3))

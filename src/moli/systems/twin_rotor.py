@@ -27,6 +27,7 @@ from dataclasses import astuple
 
 import numpy as np
 
+from ..data.arguments import real_array
 from ..data.iodata import IOData
 from ..data.signals import random_binary_signal
 from ..models.statespace import StateSpaceModel
@@ -298,7 +299,7 @@ class TwinRotor:
         seed : int, optional
             Noise seed; the constructor's ``seed`` by default.
         """
-        state = self.x_trim if x0 is None else np.array(x0, dtype=float).reshape(-1)
+        state = self.x_trim if x0 is None else real_array("x0", x0, error=TwinRotorError, finite=False).reshape(-1)
         if state.shape != (7,) or not np.all(np.isfinite(state)):
             raise TwinRotorError(f"x0 must be 7 finite numbers, got shape {np.shape(x0)}")
         self.state = state.copy()

@@ -111,8 +111,10 @@ def compare(model: StateSpaceModel, data: IOData, x0: str = "zero", horizon: int
     >>> float(compare(m, data).mean_vaf)
     100.0
     """
-    if x0 not in X0_CHOICES:
+    if not isinstance(x0, str) or x0 not in X0_CHOICES:
         raise OptionError(f"x0 must be one of {X0_CHOICES}, got {x0!r}")
+    if not isinstance(model, StateSpaceModel):
+        raise DataError(f"model must be a StateSpaceModel, got {type(model).__name__}")
     k = check_horizon(model, horizon)
     u, y = deviations(model, data)
     if not same_period(data.Ts, model.Ts):

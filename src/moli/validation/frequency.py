@@ -92,6 +92,8 @@ def empirical_frequency_response(
         raise DataError(f"data must be an IOData, got {type(data).__name__}")
     require_one_segment(data, "empirical_frequency_response (Welch spectra)")
     N, p, m = data.N, data.p, data.m
+    if N < 8:
+        raise DataError(f"data must have at least 8 samples (one segment of 8), got {N}")
     if nperseg is None:
         length = default_segment(N, m)
     elif isinstance(nperseg, (bool, np.bool_)) or not isinstance(nperseg, (int, np.integer)) \

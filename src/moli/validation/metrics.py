@@ -11,20 +11,22 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..data.arguments import real_array
 from ..errors import DataError
 
 __all__ = ["error_ratio", "vaf", "cost_j", "nrmse_fit"]
 
 
 def _pair(y: object, yhat: object) -> tuple[np.ndarray, np.ndarray]:
-    a = np.array(y, dtype=float, ndmin=1)
-    b = np.array(yhat, dtype=float, ndmin=1)
+    # a simulation may diverge (inf scores as no fit); the measurement must be finite
+    a = np.array(real_array("y", y), ndmin=1)
+    b = np.array(real_array("yhat", yhat, finite=False), ndmin=1)
     if a.ndim == 1:
         a = a[:, None]
     if b.ndim == 1:
         b = b[:, None]
-    if a.shape != b.shape:
-        raise DataError(f"y and yhat must have the same shape (N, p), got {a.shape} and {b.shape}")
+    if a.shape != b.shape or a.ndim != 2 or a.shape[1] == 0:
+        raise DataError(f"y and yhat must have the same shape (N, p) with p >= 1, got {a.shape} and {b.shape}")
     if a.shape[0] < 2:
         raise DataError("need at least two samples to compare signals")
     return a, b

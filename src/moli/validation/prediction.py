@@ -195,7 +195,7 @@ def predict(
     >>> bool(np.std(y[:, 0] - one_step[:, 0]) < np.std(y[:, 0] - moli.predict(m, data)[:, 0]))
     True
     """
-    if x0 not in X0_CHOICES:
+    if not isinstance(x0, str) or x0 not in X0_CHOICES:
         raise OptionError(f"x0 must be one of {X0_CHOICES}, got {x0!r}")
     if not isinstance(model, StateSpaceModel):
         raise DataError(f"model must be a StateSpaceModel, got {type(model).__name__}")

@@ -199,7 +199,7 @@ def residual_analysis(
     lags = int(lags)  # type: ignore[call-overload]
     if isinstance(confidence, bool) or not isinstance(confidence, (int, float)) or not 0.0 < confidence < 1.0:
         raise OptionError(f"confidence must be a number in (0, 1), got {confidence!r}")
-    if x0 not in X0_CHOICES:
+    if not isinstance(x0, str) or x0 not in X0_CHOICES:
         raise OptionError(f"x0 must be one of {X0_CHOICES}, got {x0!r}")
     if not isinstance(model, StateSpaceModel):
         raise DataError(f"model must be a StateSpaceModel, got {type(model).__name__}")

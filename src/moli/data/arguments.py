@@ -1,0 +1,99 @@
+"""Checks of scalar and array arguments shared by every public function.
+
+Each check raises the moli error its caller names (``DataError`` by default) with the
+argument's name and what is accepted, before the caller does any work, and returns a
+fresh value: the caller's objects are never modified.
+"""
+
+from __future__ import annotations
+
+from numbers import Integral, Real
+
+import numpy as np
+
+from ..errors import DataError, MoliError
+
+__all__ = ["real_number", "integer", "period", "real_array", "name_list"]
+
+
+def _scalar(value: object) -> object:
+    """A 0-d array's item (``np.array(0.5)`` is a number); anything else as given."""
+    return value.item() if isinstance(value, np.ndarray) and value.ndim == 0 else value
+
+
+def real_number(name: str, value: object, *, error: type[MoliError] = DataError,
+                low: float | None = None, low_open: bool = False, high: float | None = None) -> float:
+    """``value`` as a finite float in ``[low, high]`` (``(low, high]`` when ``low_open``).
+
+    Text, booleans, None, complex numbers and arrays are refused: a number given as
+    text is a mistake to report, not to guess at.
+    """
+    value = _scalar(value)
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, Real) or not np.isfinite(value):
+        raise error(f"{name} must be a finite real number, got {value!r}")
+    number = float(value)
+    below = low is not None and (number <= low if low_open else number < low)
+    if below or (high is not None and number > high):
+        left = "(-inf" if low is None else f"({low:g}" if low_open else f"[{low:g}"
+        right = ", inf)" if high is None else f", {high:g}]"
+        raise error(f"{name} must lie in {left}{right}, got {value!r}")
+    return number
+
+
+def integer(name: str, value: object, *, error: type[MoliError] = DataError, low: int | None = None) -> int:
+    """``value`` as an int of at least ``low`` (a float such as 3.0 is refused too)."""
+    value = _scalar(value)
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, Integral):
+        raise error(f"{name} must be an integer, got {value!r}")
+    if low is not None and value < low:
+        raise error(f"{name} must be an integer of at least {low}, got {value!r}")
+    return int(value)
+
+
+def period(value: object, *, error: type[MoliError] = DataError, name: str = "Ts") -> float:
+    """A sampling period: a positive finite number."""
+    value = _scalar(value)
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, Real) or not (np.isfinite(value) and value > 0):
+        raise error(f"{name} must be a positive finite number, got {value!r}")
+    return float(value)
+
+
+def real_array(name: str, value: object, *, error: type[MoliError] = DataError, ndim: int | None = None,
+               shape: tuple[int, ...] | None = None, finite: bool = True) -> np.ndarray:
+    """A float copy of ``value``: real, numeric, rectangular, of the given ``ndim``/``shape``.
+
+    ``finite=False`` lets NaN and inf through (the caller decides what they mean).
+    """
+    if value is None or isinstance(value, (str, bytes)):
+        raise error(f"{name} must be an array of real (numeric) values, got {value!r}")
+    try:
+        raw = np.asarray(value)
+    except ValueError as exc:  # ragged nested lists
+        raise error(f"{name} must be a rectangular array of real numbers: {exc}") from None
+    if raw.dtype.kind == "c" or raw.dtype == object and any(isinstance(x, complex) for x in raw.flat):
+        raise error(f"{name} must be real, got complex values (take .real or abs() first if that is meant)")
+    if raw.dtype.kind not in "biuf":
+        try:
+            raw = raw.astype(float)
+        except (TypeError, ValueError) as exc:
+            raise error(f"{name} must be an array of real (numeric) values: {exc}") from None
+    array = np.array(raw, dtype=float, copy=True)
+    if ndim is not None and array.ndim != ndim:
+        raise error(f"{name} must be a {ndim}-D array, got shape {array.shape}")
+    if shape is not None and array.shape != shape:
+        raise error(f"{name} must have shape {shape}, got {array.shape}")
+    if finite and not np.all(np.isfinite(array)):
+        raise error(f"{name} must be finite, got NaN or inf")
+    return array
+
+
+def name_list(name: str, value: object, count: int, *, error: type[MoliError] = DataError) -> tuple[str, ...]:
+    """``count`` distinct channel names from a list or tuple of strings."""
+    if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple, np.ndarray)):
+        raise error(f"{name} must be a list of {count} names, got {value!r}")
+    names = tuple(str(n) for n in value)
+    if len(names) != count:
+        raise error(f"{name} has {len(names)} names for {count} channels")
+    if len(set(names)) != len(names):
+        raise error(f"{name} must be distinct, got {names}")
+    return names
