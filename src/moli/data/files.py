@@ -19,7 +19,7 @@ import numpy as np
 from .array_files import read_mat, read_npz
 from .frame_files import check_sheet, read_excel, read_parquet
 from .iodata import IOData
-from .tables import check_request, record
+from .tables import check_request, needed_columns, record
 from .text_files import check_text_options, read_text
 from .timing import TIME_TOLERANCE
 from ..errors import DataError, OptionError
@@ -134,7 +134,7 @@ def read_data(
     if not path.is_file():
         raise DataError(f"no data file at {path}")
     if suffix in TEXT_SUFFIXES:
-        table = read_text(path, *text)
+        table = read_text(path, *text, lambda names: needed_columns(request, names))
     elif suffix == ".xlsx":
         table = read_excel(path, chosen)
     elif suffix == ".parquet":
