@@ -43,8 +43,8 @@ class Table:
     ``row(k)`` says where sample ``k`` sits in the source (``"line 12"``); ``Ts`` is a
     period the source stores; ``inputs``/``outputs`` are channels the source itself
     marks as such (a MATLAB iddata, ``u``/``y`` arrays); ``decimal`` is the decimal mark
-    of numbers stored as text; ``unread`` names the source's columns left unread because
-    no channel or clock needs them (:func:`needed_columns`).
+    of numbers stored as text; ``names`` lists every column of the source in its order
+    when only those a request needs were read (:func:`needed_columns`).
     """
 
     columns: Mapping[str, np.ndarray]
@@ -54,7 +54,7 @@ class Table:
     inputs: tuple[str, ...] | None = None
     outputs: tuple[str, ...] | None = None
     decimal: str = "."
-    unread: tuple[str, ...] = ()
+    names: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -127,7 +127,7 @@ def needed_columns(request: Request, names: Sequence[str]) -> set[str] | None:
 
 
 def _listing(table: Table) -> str:
-    names = [*table.columns, *table.unread]
+    names = list(table.names or table.columns)
     shown = ", ".join(map(repr, names[:LISTED_COLUMNS]))
     return shown + (f" and {len(names) - LISTED_COLUMNS} more" if len(names) > LISTED_COLUMNS else "")
 

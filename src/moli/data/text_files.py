@@ -303,7 +303,7 @@ def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: 
     """The columns of a text table, every cell located by its line in the file.
 
     ``needed(names)`` says which of the header's (stripped) column names to keep, None for
-    all; the others are listed in the table as unread. The file is parsed in chunks of
+    all; the table's ``names`` lists them all. The file is parsed in chunks of
     :data:`CHUNK_ROWS` rows, so no more than one chunk's text and cells are held besides
     the columns kept.
     """
@@ -336,6 +336,5 @@ def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: 
         raise DataError(f"cannot read {path} as a table with {_shown(delimiter)} between "
                         f"columns: {exc}") from None
     rows = len(next(iter(columns.values()), ()))
-    unread = tuple(name for name in names if name not in columns)
     return Table(columns, str(path), _line_locator(path, chosen, rows), decimal=decimal,
-                 unread=unread)
+                 names=tuple(names))
