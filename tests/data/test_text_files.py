@@ -178,11 +178,11 @@ def test_the_caller_gets_the_file_untouched(tmp_path):
 def test_a_table_read_in_chunks_is_the_same_record(tmp_path, monkeypatch):
     # chunks of 4 rows: every chunk boundary falls between the 25 rows of the table, a
     # text cell sits in a later chunk than the first, and the status column is dropped
-    from moli.data import text_files
+    from moli.data import frame_files
 
     path = tmp_path / "rec.csv"
     path.write_bytes(table_text(";", ",").encode("cp1252"))
-    monkeypatch.setattr(text_files, "CHUNK_ROWS", 4)
+    monkeypatch.setattr(frame_files, "CHUNK_ROWS", 4)
     check(read_data(path, [IN, "pump"], [OUT]))
     lines = path.read_bytes().decode("cp1252").splitlines()
     lines[19] = lines[19].replace(";", ";x", 1)  # a text cell on line 20, the fifth chunk

@@ -21,7 +21,7 @@ from ..validation.frequency import empirical_frequency_response
 __all__ = [
     "singular_values",
     "vaf_by_order", "measured_vs_simulated", "poles", "step_responses", "settling_samples",
-    "magnitude_responses", "envelope",
+    "bode_magnitude", "envelope",
 ]
 
 PANEL_HEIGHT = 1.9  # inches per row of axes

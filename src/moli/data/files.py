@@ -133,12 +133,15 @@ def read_data(
     chosen = check_sheet(sheet)
     if not path.is_file():
         raise DataError(f"no data file at {path}")
+    def needed(names: list[str]) -> set[str] | None:
+        return needed_columns(request, names)
+
     if suffix in TEXT_SUFFIXES:
-        table = read_text(path, *text, lambda names: needed_columns(request, names))
+        table = read_text(path, *text, needed)
     elif suffix == ".xlsx":
         table = read_excel(path, chosen)
     elif suffix == ".parquet":
-        table = read_parquet(path)
+        table = read_parquet(path, needed)
     else:
         table = read_npz(path) if suffix == ".npz" else read_mat(path)
     return record(table, request)

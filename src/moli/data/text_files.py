@@ -11,22 +11,18 @@ from __future__ import annotations
 import codecs
 import csv
 import functools
-import io
 import itertools
 import re
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Iterator
+from typing import Callable, Iterator
 
-import numpy as np
-
+from . import frame_files
 from .cells import optional
-from .tables import Table, check_header, frame_table
+from .frame_files import join_chunks
+from .tables import Table, check_header
 from ..errors import DataError, OptionError
 
 __all__ = ["detect_encoding"]
-
-if TYPE_CHECKING:  # pandas is optional
-    import pandas as pd
 
 # Byte-order marks, the 4-byte UTF-32 ones before UTF-16's that they begin with.
 BOMS = (
@@ -39,9 +35,6 @@ BOMS = (
 DETECT_BYTES = 1 << 18
 # Bytes read at a time when checking that a file is UTF-8.
 BLOCK_BYTES = 1 << 22
-# Rows pandas parses at a time: a long record is held as its columns of numbers, never
-# as its whole text or as one frame beside them.
-CHUNK_ROWS = 1 << 18
 WHITESPACE = r"\s+"
 # Tried in this order: a file with decimal commas separates its columns with ";" or a
 # tab, so those win over "," when several split every line alike.
@@ -282,29 +275,13 @@ def _line_locator(path: Path, encoding: str, rows: int) -> Callable[[int], str]:
     return row
 
 
-def _columns(chunks: Iterator["pd.DataFrame"], source: str, names: list[str]) -> dict[str, np.ndarray]:
-    """The columns ``names`` of a table read chunk by chunk, each joined into one array.
-
-    The other columns are dropped with each chunk. A column parsed as numbers is float in
-    every chunk and stays so; one with a text cell somewhere becomes an object array,
-    whose cells the table's checks then look at.
-    """
-    parts: dict[str, list[np.ndarray]] = {name: [] for name in names}
-    for chunk in chunks:
-        for name, values in frame_table(chunk, source).columns.items():
-            if name in parts:
-                parts[name].append(values)
-    return {name: np.concatenate(parts.pop(name)) if parts[name] else np.empty(0)
-            for name in names}
-
-
 def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: str | None,
               needed: Callable[[list[str]], set[str] | None] = lambda names: None) -> Table:
     """The columns of a text table, every cell located by its line in the file.
 
     ``needed(names)`` says which of the header's (stripped) column names to keep, None for
     all; the table's ``names`` lists them all. The file is parsed in chunks of
-    :data:`CHUNK_ROWS` rows, so no more than one chunk's text and cells are held besides
+    :data:`~moli.data.frame_files.CHUNK_ROWS` rows, so no more than one chunk's text and cells are held besides
     the columns kept.
     """
     with path.open("rb") as handle:
@@ -327,8 +304,8 @@ def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: 
         check_header(header, str(path))
         names = list(dict.fromkeys(name.strip() for name in header))
         kept = needed(names)
-        with pd.read_csv(path, chunksize=CHUNK_ROWS, **options) as reader:
-            columns = _columns(reader, str(path), [n for n in names if kept is None or n in kept])
+        with pd.read_csv(path, chunksize=frame_files.CHUNK_ROWS, **options) as reader:
+            columns = join_chunks(reader, str(path), [n for n in names if kept is None or n in kept])
     except UnicodeDecodeError:
         _decode(path.read_bytes(), chosen, path, encoding is not None)  # raises, naming the line
         raise
