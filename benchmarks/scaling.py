@@ -101,13 +101,16 @@ def worker(task: str, size: int, record: Path, csv: Path, workdir: Path) -> dict
     names_y = [f"y{i + 1}" for i in range(size)]
     names_u = [f"u{j + 1}" for j in range(size)]
     order = PLANT_ORDER_8 if size == 8 else moli.example_plant().n
+    # first use of each name imports its modules: done before the clock starts
+    moli.identify, moli.estimate, moli.read_data, moli.filter_polynomial
+    import pandas  # noqa: F401  (read_data's parser)
     if task in ("read", "cli"):
+        from moli.app.cli import cli
+
         start = time.perf_counter()
         if task == "read":
             moli.read_data(csv, names_u, names_y)
         else:
-            from moli.app.cli import cli
-
             cli.main(["fit", str(csv), "--inputs", ",".join(names_u), "--outputs",
                       ",".join(names_y), "--out", str(workdir / "model.json")],
                      prog_name="moli", standalone_mode=False)
@@ -129,6 +132,10 @@ def worker(task: str, size: int, record: Path, csv: Path, workdir: Path) -> dict
         sys.path.insert(0, str(HERE))
         import peers_lib
 
+        if task == "sippy":
+            peers_lib._import_sippy()
+        else:
+            import nfoursid.nfoursid  # noqa: F401
         y, u = y - y.mean(axis=0), u - u.mean(axis=0)
         start = time.perf_counter()
         if task == "sippy":
@@ -149,6 +156,9 @@ def measure(task: str, size: int, record: Path, csv: Path, workdir: Path, budget
         done = subprocess.run(command, capture_output=True, text=True, timeout=budget_s)
     except subprocess.TimeoutExpired:
         return {"status": f"over the time budget: killed after {budget_s:g} s"}
+    if done.returncode < 0:
+        return {"status": f"killed by signal {-done.returncode} (the kernel ends a process "
+                          "that exhausts memory with signal 9)"}
     if done.returncode != 0:
         last = (done.stderr.strip().splitlines() or ["no message"])[-1]
         if "MemoryError" in last:
@@ -177,10 +187,12 @@ def run(lengths: tuple[int, ...], budget_s: float, budget_mb: float, tasks: tupl
                     stopped[task] = N
                     log(f"{size}x{size} cli: not run from N = {N:.0e} on, where identify is over budget")
                     continue
-                if not record.exists():
-                    make_record(size, N, record)
-                if task in ("read", "cli") and not csv.exists():
-                    write_csv(record, size, csv)
+                if not record.exists() or task in ("read", "cli") and not csv.exists():
+                    # in a child process: a parent that once held a long record would pass
+                    # its peak resident size on to every later child's ru_maxrss
+                    subprocess.run([sys.executable, str(Path(__file__).resolve()), "--make", str(size),
+                                    str(N), str(record), str(csv) if task in ("read", "cli") else ""],
+                                   check=True)
                 point = {"task": task, "size": size, "N": N,
                          "record_mb": N * 2 * size * 8 / 1e6,
                          **measure(task, size, record, csv, workdir, budget_s)}
@@ -222,6 +234,8 @@ def table(points: list[dict], lengths: tuple[int, ...]) -> str:
     rows = [head, "|---" * (len(lengths) + 1) + "|"]
     for size in SIZES:
         for task in TASKS:
+            if not any(q["task"] == task and q["size"] == size for q in points):
+                continue
             cells = []
             for N in lengths:
                 pt = next((q for q in points if q["task"] == task and q["size"] == size and q["N"] == N), None)
@@ -300,7 +314,15 @@ def main() -> None:
     parser.add_argument("--write-docs", action="store_true",
                         help="write docs/figures/scaling.{json,png} and the table of docs/performance.md")
     parser.add_argument("--worker", nargs=5, help=argparse.SUPPRESS)
+    parser.add_argument("--make", nargs=4, help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.make:
+        size, N, record, csv = int(args.make[0]), int(args.make[1]), Path(args.make[2]), args.make[3]
+        if not record.exists():
+            make_record(size, N, record)
+        if csv and not Path(csv).exists():
+            write_csv(record, size, Path(csv))
+        return
     if args.worker:
         task, size, record, csv, workdir = args.worker
         result = worker(task, int(size), Path(record), Path(csv), Path(workdir))
