@@ -11,8 +11,8 @@ the seconds of the measured call and its own peak resident set size
 * ``sippy``     SIPPY N4SID (f = p = 20) at the plant's order
 * ``nfoursid``  nfoursid (10 block rows) at the plant's order
 
-A series stops at the first point over the time budget (the process is killed there) or
-the memory budget, and the output says so; ``cli`` is not run where ``identify`` of the
+A series stops at the first point over the time or the memory budget (the process is
+killed as soon as it passes either), and the output says so; ``cli`` is not run where ``identify`` of the
 same size was over budget, since it runs the same identification after reading.
 
 Run: ``OPENBLAS_NUM_THREADS=1 python benchmarks/scaling.py [--quick] [--write-docs]``
@@ -45,6 +45,8 @@ QUICK_N = tuple(10 ** k for k in range(3, 6))
 SLOPE_RANGE = (10 ** 4, 10 ** 6)
 PLANT_ORDER_8 = 8
 SEED = 0
+# How often the resident size of a running point is read.
+WATCH_SECONDS = 0.2
 TABLE_START, TABLE_END = "<!-- scaling table -->", "<!-- end of scaling table -->"
 
 
@@ -147,24 +149,45 @@ def worker(task: str, size: int, record: Path, csv: Path, workdir: Path) -> dict
     return {"seconds": time.perf_counter() - start}
 
 
-def measure(task: str, size: int, record: Path, csv: Path, workdir: Path, budget_s: float) -> dict:
-    """One point in a fresh process: seconds, peak RSS (MB), or why there is none."""
+def _resident_mb(pid: int) -> float:
+    """The current resident set size of a process, from /proc (0 once it has ended)."""
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return 0.0
+    line = next((line for line in status.splitlines() if line.startswith("VmRSS:")), "VmRSS: 0 kB")
+    return int(line.split()[1]) / 1024
+
+
+def measure(task: str, size: int, record: Path, csv: Path, workdir: Path, budget_s: float,
+            budget_mb: float) -> dict:
+    """One point in a fresh process: seconds, peak RSS (MB), or why there is none.
+
+    The process is killed as soon as it runs past the time budget or its resident size
+    passes the memory budget, so a peer that would take the machine's memory never does.
+    """
     command = [sys.executable, str(Path(__file__).resolve()), "--worker", task, str(size),
                str(record), str(csv), str(workdir)]
     wall = time.perf_counter()
-    try:
-        done = subprocess.run(command, capture_output=True, text=True, timeout=budget_s)
-    except subprocess.TimeoutExpired:
-        return {"status": f"over the time budget: killed after {budget_s:g} s"}
-    if done.returncode < 0:
-        return {"status": f"killed by signal {-done.returncode} (the kernel ends a process "
-                          "that exhausts memory with signal 9)"}
-    if done.returncode != 0:
-        last = (done.stderr.strip().splitlines() or ["no message"])[-1]
+    with subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) as child:
+        while child.poll() is None:
+            resident = _resident_mb(child.pid)
+            if resident > budget_mb or time.perf_counter() - wall > budget_s:
+                child.kill()
+                child.wait()
+                if resident > budget_mb:
+                    return {"status": f"over the memory budget: killed at {resident:.0f} MB"}
+                return {"status": f"over the time budget: killed after {budget_s:g} s"}
+            time.sleep(WATCH_SECONDS)
+        stdout, stderr = child.communicate()
+    if child.returncode < 0:
+        return {"status": f"killed by signal {-child.returncode}"}
+    if child.returncode != 0:
+        last = (stderr.strip().splitlines() or ["no message"])[-1]
         if "MemoryError" in last:
             return {"status": f"out of memory: {last[:200]}"}
         return {"status": f"failed: {last[:200]}"}
-    result = json.loads(done.stdout.strip().splitlines()[-1])
+    result = json.loads(stdout.strip().splitlines()[-1])
     result["process_seconds"] = time.perf_counter() - wall
     result["status"] = "ok"
     return result
@@ -195,7 +218,7 @@ def run(lengths: tuple[int, ...], budget_s: float, budget_mb: float, tasks: tupl
                                    check=True)
                 point = {"task": task, "size": size, "N": N,
                          "record_mb": N * 2 * size * 8 / 1e6,
-                         **measure(task, size, record, csv, workdir, budget_s)}
+                         **measure(task, size, record, csv, workdir, budget_s, budget_mb)}
                 if point["status"] == "ok" and point["peak_mb"] > budget_mb:
                     point["status"] = f"over the memory budget of {budget_mb:g} MB"
                 points.append(point)
