@@ -281,13 +281,15 @@ def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: 
 
     ``needed(names)`` says which of the header's (stripped) column names to keep, None for
     all; the table's ``names`` lists them all. The file is parsed in chunks of
-    :data:`~moli.data.frame_files.CHUNK_ROWS` rows, so no more than one chunk's text and cells are held besides
-    the columns kept.
+    :data:`~moli.data.frame_files.CHUNK_ROWS` rows, so no more than one chunk's text and
+    cells are held besides the columns kept.
     """
     with path.open("rb") as handle:
         head_bytes = handle.read(DETECT_BYTES)
     chosen = encoding or _file_encoding(path, head_bytes)
     text = _head_text(head_bytes, chosen, path, encoding is not None)
+    if len(head_bytes) == DETECT_BYTES and "\n" in text:
+        text = text[: text.rindex("\n")]  # a line cut short would split into fewer fields
     head = [line for _, line in itertools.islice(_numbered(text), SNIFF_LINES + 1)]
     if not head:
         raise DataError(f"{path} is empty; expected a header row with column names")
