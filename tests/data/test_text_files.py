@@ -176,3 +176,26 @@ def test_the_caller_gets_the_file_untouched(tmp_path):
     names = [IN, "pump"]
     read_data(path, names, [OUT])
     assert path.read_bytes() == before and names == [IN, "pump"]
+
+
+def test_a_table_read_in_chunks_is_the_same_record(tmp_path, monkeypatch):
+    # chunks of 4 rows: every chunk boundary falls between the 25 rows of the table, a
+    # text cell sits in a later chunk than the first, and the status column is dropped
+    from moli.data import frame_files
+
+    path = tmp_path / "rec.csv"
+    path.write_bytes(table_text(";", ",").encode("cp1252"))
+    monkeypatch.setattr(frame_files, "CHUNK_ROWS", 4)
+    check(read_data(path, [IN, "pump"], [OUT]))
+    lines = path.read_bytes().decode("cp1252").splitlines()
+    lines[19] = lines[19].replace(";", ";x", 1)  # a text cell on line 20, the fifth chunk
+    path.write_bytes(("\n".join(lines) + "\n").encode("cp1252"))
+    with pytest.raises(DataError, match=r"rec.csv, line 20, column 'débit °C': 'x"):
+        read_data(path, [IN, "pump"], [OUT])
+
+
+def test_columns_left_unread_are_still_listed(tmp_path):
+    path = tmp_path / "rec.csv"
+    path.write_text(table_text())
+    with pytest.raises(DataError, match=r"no column 'flow'; columns: 'time', 'débit °C', 'pump', 'Qualität ß', 'état'$"):
+        read_data(path, ["flow"], [OUT])

@@ -21,7 +21,7 @@ from ..validation.frequency import empirical_frequency_response
 __all__ = [
     "singular_values",
     "vaf_by_order", "measured_vs_simulated", "poles", "step_responses", "settling_samples",
-    "magnitude_responses",
+    "bode_magnitude", "envelope",
 ]
 
 PANEL_HEIGHT = 1.9  # inches per row of axes
@@ -29,6 +29,13 @@ PANEL_HEIGHT = 1.9  # inches per row of axes
 BAND_CONFIDENCE = 0.95
 # The Bode plots span three decades below the Nyquist frequency.
 DECADES = 3
+# A time series of more samples than this is drawn as the band between the least and
+# the largest sample of ENVELOPE_BINS bins: a 7.5-inch panel at 110 dpi is about 800
+# pixels wide, so more points only slow the drawing and blot the line.
+MAX_DRAWN_SAMPLES = 4000
+ENVELOPE_BINS = 1000
+# A long record's figure shows its last samples beside the envelope, each drawn.
+DETAIL_SAMPLES = 500
 
 
 def _figure(width: float, height: float) -> Figure:
@@ -47,6 +54,58 @@ def _channel_grid(model: StateSpaceModel, ylabel: str, xlabel: str) -> tuple[Fig
     for i, name in enumerate(model.output_names):
         axes[i, 0].set_ylabel(f"{ylabel} {name}")
     return fig, axes
+
+
+def envelope(t: np.ndarray, values: np.ndarray, bins: int = ENVELOPE_BINS) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The least and largest sample of each of ``bins`` runs of consecutive samples.
+
+    Drawn as a step band (``fill_between(edges, low, high, step="post")``) it covers
+    every sample: bin ``b`` spans ``edges[b]`` to ``edges[b + 1]``, the times of its first
+    sample and of the next bin's (the record's last time for the last bin).
+
+    Parameters
+    ----------
+    t : ndarray, shape (N,)
+        Increasing times of the samples.
+    values : ndarray, shape (N,)
+    bins : int, default 1000
+        At most this many bins (fewer for a shorter record), of sizes differing by at most one.
+
+    Returns
+    -------
+    edges, low, high : ndarray, shape (bins + 1,)
+        ``low`` and ``high`` repeat their last value at the closing edge.
+
+    Examples
+    --------
+    >>> edges, low, high = envelope(np.arange(6.0), np.array([0.0, 5, 1, 2, 9, 3]), bins=2)
+    >>> edges.tolist(), low.tolist(), high.tolist()
+    ([0.0, 3.0, 5.0], [0.0, 2.0, 2.0], [5.0, 9.0, 9.0])
+    """
+    values = np.asarray(values, dtype=float)
+    bins = min(bins, len(values))
+    starts = np.linspace(0, len(values), bins + 1).astype(int)[:-1]
+    low = np.minimum.reduceat(values, starts)
+    high = np.maximum.reduceat(values, starts)
+    edges = np.append(np.asarray(t, dtype=float)[starts], t[-1])
+    return edges, np.append(low, low[-1]), np.append(high, high[-1])
+
+
+def _trace(ax: object, t: np.ndarray, values: np.ndarray, color: str, label: str,
+           filled: bool) -> None:
+    """A time series as a line, or when it is long as its min-max envelope: a filled band,
+    or its two edges as lines so that a band drawn under it still shows."""
+    if len(values) <= MAX_DRAWN_SAMPLES:
+        ax.plot(t, values, color=color, linewidth=1.0, label=label)  # type: ignore[attr-defined]
+        return
+    edges, low, high = envelope(t, values)
+    label = f"{label}, min and max of {len(values) / (len(edges) - 1):.0f} samples"
+    if filled:
+        ax.fill_between(edges, low, high, step="post", color=color, alpha=0.45,  # type: ignore[attr-defined]
+                        linewidth=0, label=label)
+    else:
+        ax.plot(edges, low, color=color, linewidth=0.7, drawstyle="steps-post", label=label)  # type: ignore[attr-defined]
+        ax.plot(edges, high, color=color, linewidth=0.7, drawstyle="steps-post")  # type: ignore[attr-defined]
 
 
 def vaf_by_order(path: Sequence[PathStep], tried: Sequence[PathStep] = (), selected: int | None = None) -> Figure:
@@ -93,6 +152,12 @@ def vaf_by_order(path: Sequence[PathStep], tried: Sequence[PathStep] = (), selec
 def measured_vs_simulated(data: IOData, comparison: Comparison) -> Figure:
     """Measured and simulated outputs, one panel per output (like the paper's Fig. 7).
 
+    A record longer than :data:`MAX_DRAWN_SAMPLES` is drawn as bands from the least to
+    the largest sample of each of :data:`ENVELOPE_BINS` bins (:func:`envelope`): the
+    measured output filled, the simulated one as its two edges; beside it, the last
+    :data:`DETAIL_SAMPLES` samples as lines. So the figure of 10^6 samples stays
+    readable and quick to write.
+
     Parameters
     ----------
     data : IOData
@@ -104,18 +169,29 @@ def measured_vs_simulated(data: IOData, comparison: Comparison) -> Figure:
     -------
     matplotlib.figure.Figure
     """
-    fig = _figure(7.5, PANEL_HEIGHT * data.p + 0.4)
-    axes = fig.subplots(data.p, 1, sharex=True, squeeze=False)[:, 0]
+    long = data.N > MAX_DRAWN_SAMPLES
+    fig = _figure(10.0 if long else 7.5, PANEL_HEIGHT * data.p + 0.4)
+    grid = fig.subplots(data.p, 2 if long else 1, sharex="col", squeeze=False,
+                        width_ratios=[3, 1] if long else None)
+    axes = grid[:, 0]
     t = data.time()
     for i, ax in enumerate(axes):
-        ax.plot(t, data.y[:, i], color="0.2", linewidth=1.0, label="measured")
-        ax.plot(t, comparison.yhat[:, i], color="C1", linewidth=1.0, label="simulated")
+        _trace(ax, t, data.y[:, i], "0.2", "measured", filled=True)
+        _trace(ax, t, comparison.yhat[:, i], "C1", "simulated", filled=False)
         for start in data.segment_starts[1:]:   # each segment is simulated from its own start
             ax.axvline(t[start], color="0.5", linewidth=0.8, linestyle=":")
+        if long:  # the record's last samples as they are, where single responses show
+            tail = slice(data.N - DETAIL_SAMPLES, None)
+            grid[i, 1].plot(t[tail], data.y[tail, i], color="0.2", linewidth=1.0)
+            grid[i, 1].plot(t[tail], comparison.yhat[tail, i], color="C1", linewidth=1.0)
+            grid[i, 1].grid(alpha=0.3)
         ax.set_ylabel(data.output_names[i])
         ax.set_title(f"VAF {comparison.vaf[i]:.1f} %, fit {comparison.fit[i]:.1f} %",
                      fontsize=9, loc="right")
         ax.grid(alpha=0.3)
+    if long:
+        grid[0, 1].set_title(f"last {DETAIL_SAMPLES} samples", fontsize=9, loc="right")
+        grid[-1, 1].set_xlabel("time")
     # outside the axes: inside, the legend hides the start-up transient of the first output
     fig.legend(*axes[0].get_legend_handles_labels(), loc="outside upper left", fontsize=8, ncols=2)
     axes[-1].set_xlabel("time from the start of the record")

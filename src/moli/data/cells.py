@@ -96,7 +96,7 @@ def parse_numbers(values: object, decimal: str = ".") -> tuple[np.ndarray, int |
     """
     array = np.asarray(values)
     if array.dtype.kind in "biuf":
-        return array.astype(float), None
+        return array.astype(float, copy=False), None
     if array.dtype.kind in "mM":  # date-times and durations are not channel values
         return np.full(array.shape, np.nan), 0
     numbers = np.full(array.shape, np.nan)

@@ -20,7 +20,7 @@ import numpy as np
 from .array_files import read_mat, read_npz
 from .frame_files import check_sheet, read_excel, read_parquet
 from .iodata import IOData
-from .tables import check_request, record
+from .tables import check_request, needed_columns, record
 from .text_files import check_text_options, read_text
 from .timing import TIME_TOLERANCE
 from ..errors import DataError, OptionError
@@ -136,12 +136,15 @@ def read_data(
     chosen = check_sheet(sheet)
     if not path.is_file():
         raise DataError(f"no data file at {path}")
+    def needed(names: list[str]) -> set[str] | None:
+        return needed_columns(request, names)
+
     if suffix in TEXT_SUFFIXES:
-        table = read_text(path, *text)
+        table = read_text(path, *text, needed)
     elif suffix == ".xlsx":
         table = read_excel(path, chosen)
     elif suffix == ".parquet":
-        table = read_parquet(path)
+        table = read_parquet(path, needed)
     else:
         table = read_npz(path) if suffix == ".npz" else read_mat(path)
     return record(table, request)

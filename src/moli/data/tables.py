@@ -43,7 +43,8 @@ class Table:
     ``row(k)`` says where sample ``k`` sits in the source (``"line 12"``); ``Ts`` is a
     period the source stores; ``inputs``/``outputs`` are channels the source itself
     marks as such (a MATLAB iddata, ``u``/``y`` arrays); ``decimal`` is the decimal mark
-    of numbers stored as text.
+    of numbers stored as text; ``names`` lists every column of the source in its order
+    when only those a request needs were read (:func:`needed_columns`).
     """
 
     columns: Mapping[str, np.ndarray]
@@ -53,6 +54,7 @@ class Table:
     inputs: tuple[str, ...] | None = None
     outputs: tuple[str, ...] | None = None
     decimal: str = "."
+    names: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -106,8 +108,26 @@ def check_header(names: Sequence[object], source: str) -> None:
                         "row naming the columns (e.g. time, u1, y1)")
 
 
+def needed_columns(request: Request, names: Sequence[str]) -> set[str] | None:
+    """The columns of ``names`` that :func:`record` reads for ``request``; None: every one.
+
+    A reader that can skip columns parses only these: the channels and the time column
+    (the one named, else the first time-like name that is not a channel), so a long
+    record's comment or status column never becomes text in memory.
+    """
+    if request.inputs is None or request.outputs is None:
+        return None
+    channels = {*request.inputs, *request.outputs}
+    if isinstance(request.time_column, str):
+        return channels | {request.time_column}
+    clock = None if request.time_column is False else next(
+        (name for name in names if name not in channels and name.strip().lower() in TIME_COLUMNS),
+        None)
+    return channels | ({clock} if clock is not None else set())
+
+
 def _listing(table: Table) -> str:
-    names = list(table.columns)
+    names = list(table.names or table.columns)
     shown = ", ".join(map(repr, names[:LISTED_COLUMNS]))
     return shown + (f" and {len(names) - LISTED_COLUMNS} more" if len(names) > LISTED_COLUMNS else "")
 

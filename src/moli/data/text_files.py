@@ -10,16 +10,16 @@ from __future__ import annotations
 
 import codecs
 import csv
-import dataclasses
 import functools
-import io
 import itertools
 import re
 from pathlib import Path
 from typing import Callable, Iterator
 
+from . import frame_files
 from .cells import optional
-from .tables import Table, check_header, frame_table
+from .frame_files import join_chunks
+from .tables import Table, check_header
 from ..errors import DataError, OptionError
 
 __all__ = ["detect_encoding"]
@@ -33,6 +33,8 @@ BOMS = (
 # The encoding detector reads this much of a file; a plant record's header and first
 # rows are text enough, and the detector's time grows with its input.
 DETECT_BYTES = 1 << 18
+# Bytes read at a time when checking that a file is UTF-8.
+BLOCK_BYTES = 1 << 22
 WHITESPACE = r"\s+"
 # Tried in this order: a file with decimal commas separates its columns with ";" or a
 # tab, so those win over "," when several split every line alike.
@@ -160,8 +162,9 @@ def detect_encoding(raw: bytes) -> str:
 
 
 def _decode(raw: bytes, encoding: str, path: Path, given: bool) -> str:
+    """``raw`` as text, or the error naming the line of the first byte that does not decode."""
     try:
-        text = raw.decode(encoding)
+        return raw.decode(encoding)
     except UnicodeDecodeError as exc:
         line = raw[: exc.start].count(b"\n") + 1
         how = "" if given else " (detected)"
@@ -170,7 +173,45 @@ def _decode(raw: bytes, encoding: str, path: Path, given: bool) -> str:
             "does not decode; give the file's encoding (encoding= or --encoding), e.g. utf-8, "
             "utf-16, cp1252"
         ) from None
-    bad = CONTROL.search(text, 0, DETECT_BYTES)  # binary data shows at once; later junk fails as cells
+
+
+def _plain_utf8(path: Path) -> bool:
+    """True when the whole file is UTF-8 without zero bytes, checked block by block."""
+    decoder = codecs.getincrementaldecoder("utf-8")()
+    try:
+        with path.open("rb") as handle:
+            for block in iter(lambda: handle.read(BLOCK_BYTES), b""):
+                if b"\x00" in block:
+                    return False
+                decoder.decode(block)
+        decoder.decode(b"", final=True)
+    except UnicodeDecodeError:
+        return False
+    return True
+
+
+def _file_encoding(path: Path, head: bytes) -> str:
+    """:func:`detect_encoding` of the file, without holding a UTF-8 file in memory.
+
+    Legacy code pages are told apart on the whole file, as :func:`detect_encoding` does;
+    such files come from older loggers and are short.
+    """
+    if any(head.startswith(bom) for bom, _ in BOMS):
+        return detect_encoding(head)
+    if _plain_utf8(path):
+        return "utf-8"
+    return detect_encoding(path.read_bytes())
+
+
+def _head_text(head: bytes, encoding: str, path: Path, given: bool) -> str:
+    """The first bytes of the file as text (a character cut at the end is left out); binary
+    data in them is an error, since it shows at once in a file of another format."""
+    try:
+        text = codecs.getincrementaldecoder(encoding)().decode(head)
+    except UnicodeDecodeError:
+        _decode(path.read_bytes(), encoding, path, given)  # raises, naming the line
+        raise
+    bad = CONTROL.search(text)
     if bad:
         line = text.count("\n", 0, bad.start()) + 1
         raise DataError(
@@ -219,13 +260,13 @@ def _numbered(text: str) -> Iterator[tuple[int, str]]:
             yield number, match.group(1)
 
 
-def _line_locator(text: str, rows: int) -> Callable[[int], str]:
-    """Names data row ``k`` by its line in the file; lines are counted on first use, since
-    only messages need them."""
+def _line_locator(path: Path, encoding: str, rows: int) -> Callable[[int], str]:
+    """Names data row ``k`` by its line in the file; the file is read again to count its
+    lines on first use, since only messages need them."""
 
     @functools.cache
     def lines() -> list[int]:
-        return [number for number, _ in _numbered(text)][1:]
+        return [number for number, _ in _numbered(path.read_bytes().decode(encoding))][1:]
 
     def row(k: int) -> str:
         # a quoted cell spanning lines would shift the count: name the data row instead
@@ -234,10 +275,21 @@ def _line_locator(text: str, rows: int) -> Callable[[int], str]:
     return row
 
 
-def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: str | None) -> Table:
-    """The columns of a text table, every cell located by its line in the file."""
-    raw = path.read_bytes()
-    text = _decode(raw, encoding or detect_encoding(raw), path, encoding is not None)
+def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: str | None,
+              needed: Callable[[list[str]], set[str] | None] = lambda names: None) -> Table:
+    """The columns of a text table, every cell located by its line in the file.
+
+    ``needed(names)`` says which of the header's (stripped) column names to keep, None for
+    all; the table's ``names`` lists them all. The file is parsed in chunks of
+    :data:`~moli.data.frame_files.CHUNK_ROWS` rows, so no more than one chunk's text and
+    cells are held besides the columns kept.
+    """
+    with path.open("rb") as handle:
+        head_bytes = handle.read(DETECT_BYTES)
+    chosen = encoding or _file_encoding(path, head_bytes)
+    text = _head_text(head_bytes, chosen, path, encoding is not None)
+    if len(head_bytes) == DETECT_BYTES and "\n" in text:
+        text = text[: text.rindex("\n")]  # a line cut short would split into fewer fields
     head = [line for _, line in itertools.islice(_numbered(text), SNIFF_LINES + 1)]
     if not head:
         raise DataError(f"{path} is empty; expected a header row with column names")
@@ -247,12 +299,21 @@ def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: 
         raise DataError(f"{path}: the delimiter and the decimal mark are both {decimal!r}; "
                         "give them (delimiter=, decimal= or --delimiter, --decimal)")
     pd = optional("pandas", f"reading {path.name}")
+    options = dict(sep=delimiter, decimal=decimal, encoding=chosen, index_col=False,
+                   skipinitialspace=True, skip_blank_lines=True)
     try:
-        frame = pd.read_csv(io.StringIO(text), sep=delimiter, decimal=decimal, index_col=False,
-                            skipinitialspace=True, skip_blank_lines=True, low_memory=False)
+        header = [str(name) for name in pd.read_csv(path, nrows=0, **options).columns]
+        check_header(header, str(path))
+        names = list(dict.fromkeys(name.strip() for name in header))
+        kept = needed(names)
+        with pd.read_csv(path, chunksize=frame_files.CHUNK_ROWS, **options) as reader:
+            columns = join_chunks(reader, str(path), [n for n in names if kept is None or n in kept])
+    except UnicodeDecodeError:
+        _decode(path.read_bytes(), chosen, path, encoding is not None)  # raises, naming the line
+        raise
     except ValueError as exc:  # pandas' ParserError and EmptyDataError are ValueErrors
         raise DataError(f"cannot read {path} as a table with {_shown(delimiter)} between "
                         f"columns: {exc}") from None
-    check_header(list(frame.columns), str(path))
-    table = frame_table(frame, str(path), _line_locator(text, len(frame)))
-    return dataclasses.replace(table, decimal=decimal)
+    rows = len(next(iter(columns.values()), ()))
+    return Table(columns, str(path), _line_locator(path, chosen, rows), decimal=decimal,
+                 names=tuple(names))
