@@ -139,6 +139,12 @@ def test_fit_warns_of_gaps_with_their_place_and_keeps_going(tmp_path):
     # sample 100 is on line 102; the 1.5 s step lacks two samples of 0.5 s
     assert ("moli: warning: " in done.stderr and
             "line 102 (sample 100): t = 49.5 s to 51 s, 2 samples missing" in done.stderr)
+    # the gap is a segment boundary: the model is the one of the record split there
+    with pytest.warns(moli.IrregularSamplingWarning):
+        data = moli.read_data(path, INPUTS, OUTPUTS)
+    assert data.segment_starts == (0, 100)
+    expected = moli.identify(*data.split(0.7), nmax=4).model
+    np.testing.assert_array_equal(moli.load_model(tmp_path / "m.json").A, expected.A)
 
 
 def test_fit_takes_empty_cells_as_gaps_between_segments(tmp_path):

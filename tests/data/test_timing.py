@@ -72,6 +72,7 @@ def test_a_gap_is_a_warning_that_says_where(tmp_path):
     with pytest.warns(IrregularSamplingWarning) as caught:
         data = read_data(tmp_path / "rec.csv", ["u"], ["y"])
     assert data.Ts == 0.5 and data.N == N  # the median step; the samples are kept
+    assert data.segment_starts == (0, 17)   # the filters restart after the gap
     warning = caught[0].message
     assert warning.gaps == (SamplingGap(index=17, start=8.0, stop=10.0, missing=3),)
     # sample 17 is on line 19 of the file (header on line 1, sample 0 on line 2)
@@ -85,8 +86,9 @@ def test_many_gaps_are_counted_and_all_kept(tmp_path):
         seconds[k:] += 2.0
     write_stamped(tmp_path / "rec.csv", [repr(float(s)) for s in seconds], head="t")
     with pytest.warns(IrregularSamplingWarning, match="7 gaps longer than 1.5 Ts: .*; and 2 more") as caught:
-        read_data(tmp_path / "rec.csv", ["u"], ["y"])
+        data = read_data(tmp_path / "rec.csv", ["u"], ["y"])
     assert [g.index for g in caught[0].message.gaps] == [5, 10, 15, 20, 25, 30, 35]
+    assert data.segment_starts == (0, 5, 10, 15, 20, 25, 30, 35)
 
 
 def test_jitter_within_the_tolerance_is_quiet_and_beyond_it_warns(tmp_path):
@@ -95,9 +97,10 @@ def test_jitter_within_the_tolerance_is_quiet_and_beyond_it_warns(tmp_path):
     write_stamped(tmp_path / "rec.csv", [repr(float(s)) for s in seconds], head="time")
     assert strictly(lambda: read_data(tmp_path / "rec.csv", ["u"], ["y"])).Ts == 1.0
     with pytest.warns(IrregularSamplingWarning, match="2 of 39 time steps differ") as caught:
-        read_data(tmp_path / "rec.csv", ["u"], ["y"], time_tolerance=0.001)
+        data = read_data(tmp_path / "rec.csv", ["u"], ["y"], time_tolerance=0.001)
     assert [g.index for g in caught[0].message.gaps] == [10, 11]
     assert "longer than" not in str(caught[0].message)  # jitter, no gap
+    assert data.n_segments == 1
 
 
 def test_stated_period_must_agree_with_the_time_stamps(tmp_path):

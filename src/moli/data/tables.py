@@ -18,7 +18,7 @@ from .cells import is_missing, parse_numbers
 from .iodata import IOData
 from .timing import (
     TIME_COLUMNS, TIME_TOLERANCE, check_period, check_tolerance, datetimes_to_seconds,
-    irregular_warning, iso_to_seconds, sampling_period,
+    gap_starts, irregular_warning, iso_to_seconds, sampling_period,
 )
 from ..errors import DataError, IrregularSamplingWarning, OptionError
 
@@ -278,7 +278,9 @@ def record(table: Table, request: Request) -> IOData:
     Ts, warning = _period(table, request, clock, lengths.pop())
     u = np.column_stack([columns[name] for name in inputs])
     y = np.column_stack([columns[name] for name in outputs])
-    data = IOData(y, u, Ts, output_names=outputs, input_names=inputs)
+    # a gap in the clock is a segment boundary, like a missing sample
+    starts = None if warning is None else gap_starts(warning.gaps, Ts)
+    data = IOData(y, u, Ts, output_names=outputs, input_names=inputs, segment_starts=starts)
     if warning is not None:
         warnings.warn(warning, stacklevel=3)
     return data

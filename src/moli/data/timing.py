@@ -179,6 +179,12 @@ def sampling_period(
     return period, find_gaps(times, period, tolerance)
 
 
+def gap_starts(gaps: tuple[SamplingGap, ...], Ts: float) -> list[int]:
+    """Segment starts of a record whose time steps have these gaps: 0, then after each
+    step longer than 1.5 Ts (a sample or more is missing there)."""
+    return [0] + [g.index for g in gaps if g.step > GAP_FACTOR * Ts]
+
+
 def irregular_warning(
     gaps: tuple[SamplingGap, ...],
     Ts: float,
@@ -189,6 +195,8 @@ def irregular_warning(
     unit: str = "",
 ) -> IrregularSamplingWarning:
     """The warning for irregular steps of ``source``, naming the gaps longer than 1.5 Ts.
+
+    The record's reader splits it at those gaps (:func:`gap_starts`).
 
     ``where(k)`` says where sample ``k`` is in the file (e.g. ``"line 9"``); ``unit``
     follows every time in the message (``" s"`` for date-times).
@@ -205,6 +213,9 @@ def irregular_warning(
         more = f"; and {len(long) - LISTED_GAPS} more" if len(long) > LISTED_GAPS else ""
         plural = "" if len(long) == 1 else "s"
         text += f"; {len(long)} gap{plural} longer than {GAP_FACTOR:g} Ts: {listed}{more}"
-    text += (". The samples are used as if evenly spaced; the warning's gaps attribute "
-             "lists every irregular step.")
+    text += (". The record is split into segments at each gap (the filters restart there); "
+             "shorter irregular steps are used as if evenly spaced. The warning's gaps "
+             "attribute lists every irregular step." if long else
+             ". The samples are used as if evenly spaced; the warning's gaps attribute lists "
+             "every irregular step.")
     return IrregularSamplingWarning(text, gaps)
