@@ -35,6 +35,7 @@ BAD = {
     "x0": (None, "random"),
     "noise_model": ("yes", None),
     "delays": (1.5, -1),
+    "search_samples": (2.0**15, 499),
 }
 
 
@@ -93,6 +94,7 @@ def test_presets_show_what_they_set():
 @pytest.mark.parametrize("opts", [
     IdentifyOptions(), IdentifyOptions.paper(nmax=9, seed=3), IdentifyOptions.bounded(),
     IdentifyOptions(omega=[(0.1, 0.7), (0.2, 1.1)], refine="path", max_radius=0.99),
+    IdentifyOptions(search_samples=None), IdentifyOptions(search_samples=4096),
 ])
 def test_json_round_trip(opts):
     assert IdentifyOptions.from_dict(json.loads(json.dumps(opts.to_dict()))) == opts

@@ -11,7 +11,7 @@ from __future__ import annotations
 import functools
 import warnings
 from itertools import accumulate
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import numpy as np
 import scipy.linalg
@@ -20,12 +20,13 @@ from ..data.iodata import IOData
 from ..errors import DataError, IllConditionedWarning, OptionError
 from .covariance import matrix_covariance
 from .filters import check_alpha, divisors
+from .row_blocks import WHOLE_ROWS, check_segments, fold, lagged_blocks
 from ..models.statespace import StateSpaceModel
 from .structure import Indices, check_indices, parameter_counts
 
 __all__ = [
     "filtered_regressors", "output_regressors", "solve_batch", "realize", "fit_batch",
-    "check_sample_count", "estimate",
+    "check_sample_count", "estimate", "regressor_blocks",
 ]
 
 # Condition numbers (of the column-scaled regressor) above this are reported:
@@ -77,6 +78,52 @@ def output_regressors(
             parts.append(z[skip:, p:])
         phis.append(np.concatenate(parts, axis=1))
     return phis
+
+
+def regressor_blocks(
+    z: np.ndarray, indices: Indices, alphas: Sequence[np.ndarray], through: np.ndarray | None = None,
+) -> Iterator[tuple[list[np.ndarray], np.ndarray]]:
+    """:func:`output_regressors` and the targets ``y`` in row blocks (bounded memory).
+
+    Yields each block's regressors of every output, shapes (rows_b, k_j), and its
+    targets, shape (rows_b, p); concatenated, the blocks are :func:`output_regressors`
+    and ``z[max(indices):, :p]``.
+    """
+    p = len(indices)
+    skip = max(indices)
+    signals = np.ascontiguousarray(z.T)
+    segments = check_segments(None, z.shape[0])
+    streams = [lagged_blocks(signals, np.asarray(a, float), skip, segments) for a in alphas]
+    for parts in zip(*streams):
+        k0, k1 = parts[0][:2]
+        current = z[k0:k1]
+        phis = []
+        for j, (_, _, lagged) in enumerate(parts):
+            columns = [lagged.transpose(2, 0, 1).reshape(k1 - k0, -1), current[:, :j]]
+            if through is not None and through[j]:
+                columns.append(current[:, p:])
+            phis.append(np.concatenate(columns, axis=1))
+        yield phis, current[:, :p]
+
+
+def _streamed_fit(z: np.ndarray, indices: Indices, alphas: Sequence[np.ndarray]) -> tuple[list[np.ndarray], float]:
+    """Each output's least-squares parameters from the factor of ``[phi_j | y_j]`` built in row blocks.
+
+    ``|Phi theta - y| = |R11 theta - r12|`` up to a constant and ``R11`` has the column
+    norms of ``Phi``, so :func:`solve_batch` on the small triangular problem gives the
+    whole-record solution and condition estimate.
+    """
+    factors: list[np.ndarray | None] = [None] * len(indices)
+    for phis, targets in regressor_blocks(z, indices, alphas):
+        for j, phi in enumerate(phis):
+            factors[j] = fold(factors[j], np.concatenate([phi, targets[:, j : j + 1]], axis=1).T)
+    thetas, worst = [], 1.0
+    for r in factors:
+        k = r.shape[1] - 1
+        theta, cond = solve_batch(r[None, :k, :k], r[None, :k, k])
+        thetas.append(theta)
+        worst = max(worst, float(cond[0]))
+    return thetas, worst
 
 
 # Rows per block of the tall-skinny QR: blocks stay in cache, so the cost per
@@ -319,7 +366,12 @@ def estimate(
     alphas = divisors(coeffs, idx)
     check_sample_count(data.N, idx, data.m)
     z = np.concatenate([data.y, data.u], axis=1)
-    A, B, C, cond = fit_batch(z, idx, [alphas])
+    if data.N - max(idx) <= WHOLE_ROWS:
+        A, B, C, cond = fit_batch(z, idx, [alphas])
+    else:                           # a long record: in row blocks, in bounded memory
+        thetas, worst = _streamed_fit(z, idx, alphas)
+        A, B, C = realize(thetas, [alphas], idx, data.m)
+        cond = np.array([worst])
     if cond[0] > COND_LIMIT:
         warnings.warn(
             f"least-squares problem for list {list(idx)} is badly conditioned "
@@ -342,9 +394,13 @@ def estimate(
 def _attach_covariance(model: StateSpaceModel, z: np.ndarray, indices: Indices, alphas: Sequence[np.ndarray]) -> None:
     """Give ``model`` the covariance of its matrices, or record in its ``info`` why it has none."""
     p = len(indices)
+    through = np.zeros(p, bool)
     try:
+        if z.shape[0] - max(indices) <= WHOLE_ROWS:
+            problems = (output_regressors(z, indices, alphas), z[max(indices) :, :p])
+        else:
+            problems = lambda: regressor_blocks(z, indices, alphas, through)  # noqa: E731
         model.cov_factor, model.info["covariance"] = matrix_covariance(
-            output_regressors(z, indices, alphas), z[max(indices) :, :p], indices, model.C, model.D,
-            np.zeros(p, bool))
+            problems, indices, model.C, model.D, through)
     except DataError as exc:
         model.info["covariance"] = {"method": "none", "reason": str(exc)}

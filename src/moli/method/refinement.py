@@ -139,9 +139,12 @@ def _sensitivities(A: np.ndarray, C: np.ndarray, signals: np.ndarray) -> tuple[n
     size = scipy.fft.next_fast_len(2 * N - 1, real=True)
     H = scipy.fft.rfft(free, size, axis=0)            # (F, p, n)
     V = scipy.fft.rfft(signals, size, axis=0)         # (F, k)
-    S = scipy.fft.irfft(H[:, :, :, None] * V[:, None, None, :], size, axis=0)[: N - 1]
-    out = np.zeros((N,) + S.shape[1:])
-    out[1:] = S                                        # one-step delay of (qI - A)^-1
+    out = np.zeros(free.shape + (signals.shape[1],))
+    # one signal at a time: the products of all of them at once hold (F, p, n, k)
+    # complex values, several times the record's size
+    for c in range(signals.shape[1]):
+        # one-step delay of (qI - A)^-1
+        out[1:, :, :, c] = scipy.fft.irfft(H * V[:, c, None, None], size, axis=0)[: N - 1]
     return out, free
 
 

@@ -9,7 +9,7 @@ nested F-test of the "auto" feedthrough.
 from __future__ import annotations
 
 import functools
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import numpy as np
 import scipy.linalg
@@ -19,6 +19,7 @@ from numpy.lib.stride_tricks import as_strided
 from ..errors import OptionError
 from .estimation import solve_batch
 from .filters import _needs_real, filter_rows
+from .row_blocks import WHOLE_ROWS, check_segments, lagged_blocks, streamed_factor
 from .structure import Indices
 
 __all__ = ["RegressionCache"]
@@ -31,6 +32,9 @@ FEEDTHROUGH_LEVEL = 1e-3
 # columns, too few for LAPACK's blocked dgeqrf (which then applies one reflector at a
 # time); dgeqrt in blocks of 8 took 17-44 % less time on 433 x 30 to 645 x 90
 QR_BLOCK = 8
+# Filters factored whole at a time hold at most this many bytes of matrices: sharing
+# one allocation saves time on short records, and the bound keeps it off long ones.
+BATCH_BYTES = 2**26
 
 
 class RegressionCache:
@@ -59,10 +63,15 @@ class RegressionCache:
         (otherwise that output's feedthrough is exactly zero).
     """
 
-    def __init__(self, z: np.ndarray, p: int, feedthrough: bool | str = False) -> None:
+    def __init__(
+        self, z: np.ndarray, p: int, feedthrough: bool | str = False,
+        segments: Sequence[tuple[int, int]] | None = None,
+    ) -> None:
         if feedthrough not in FEEDTHROUGH_CHOICES:
             raise OptionError(f"feedthrough must be one of {FEEDTHROUGH_CHOICES}, got {feedthrough!r}")
         self.z = z
+        self.segments = None if segments is None else check_segments(segments, z.shape[0])
+        self._signals = np.ascontiguousarray(z.T)
         self.p = p
         self.feedthrough = feedthrough
         # columns appended to xi: the outputs, and the inputs when they feed through
@@ -100,39 +109,74 @@ class RegressionCache:
         return [f[nbar] for f in found], [[f[l] for l in indices] for f in found]
 
     def factor(self, alphas: Sequence[np.ndarray]) -> list[np.ndarray]:
-        """Triangular factors of ``[xi, y]`` for each filter polynomial (batched, cached)."""
+        """Triangular factors of ``[xi, y]`` for each filter polynomial (batched, cached).
+
+        A record of one segment with at most :data:`WHOLE_ROWS` rows is factored whole,
+        several filters at a time (at most :data:`BATCH_BYTES` of matrices); longer
+        records and records of several segments are streamed through the factor in row
+        blocks (:mod:`moli.method.row_blocks`), one filter at a time.
+        """
         keys = [a.tobytes() for a in alphas]
         todo = {k: a for k, a in zip(keys, alphas) if k not in self._factors}
         if todo:
             by_degree: dict[int, list[tuple[bytes, np.ndarray]]] = {}
             for k, a in todo.items():
                 by_degree.setdefault(a.size - 1, []).append((k, a))
-            from scipy.signal import lfilter  # scipy.signal is slow to import: only when filtering
-
-            N, c = self.z.shape
-            signals = np.ascontiguousarray(self.z.T)
             for nbar, items in by_degree.items():
-                rows, cols = N - nbar, c * nbar + self.extra
-                # each matrix stored column by column: LAPACK factors it in place, without
-                # the copies np.linalg.qr makes of its input
-                columns = np.empty((len(items), cols, rows))
-                for i, (_, a) in enumerate(items):
-                    # column r nbar + t (channel r filtered by q^t/alpha, from sample nbar
-                    # on) is the filtered channel r from sample t on
-                    base = lfilter([1.0], a, signals, axis=-1)
-                    s_r, s_k = base.strides
-                    delayed = as_strided(base, (c, nbar, rows), (s_r, s_k, s_k), writeable=False)
-                    np.copyto(columns[i, : c * nbar].reshape(c, nbar, rows), delayed)
-                columns[:, c * nbar :] = signals[: self.extra, nbar:]
-                block = min(QR_BLOCK, rows, cols)
-                below = _below_diagonal(min(rows, cols), cols)
-                for (k, _), matrix in zip(items, columns):
-                    factored = scipy.linalg.lapack.dgeqrt(block, matrix.T, overwrite_a=True)[0]
-                    factor = np.array(factored[: min(rows, cols)], order="C")
-                    factor[below] = 0.0          # the reflectors LAPACK leaves below R
-                    self._factors[k] = factor
+                cols = self.z.shape[1] * nbar + self.extra
+                if self.segments is None and self.z.shape[0] - nbar <= WHOLE_ROWS:
+                    rows = self.z.shape[0] - nbar
+                    batch = max(1, BATCH_BYTES // (8 * rows * cols))
+                    for first in range(0, len(items), batch):
+                        self._factor_whole(items[first : first + batch], nbar)
+                else:
+                    for k, a in items:
+                        self._factors[k] = self._factor_streamed(a, nbar, cols)
                 self.factorizations += len(items)
         return [self._factors[k] for k in keys]
+
+    def rows(self, nbar: int) -> int:
+        """Rows of the least-squares problems of filters of degree ``nbar`` (every segment's)."""
+        return sum(max(stop - start - nbar, 0) for start, stop in check_segments(self.segments, self.z.shape[0]))
+
+    def _factor_whole(self, items: list[tuple[bytes, np.ndarray]], nbar: int) -> None:
+        from scipy.signal import lfilter  # scipy.signal is slow to import: only when filtering
+
+        N, c = self.z.shape
+        signals = self._signals
+        rows, cols = N - nbar, c * nbar + self.extra
+        # each matrix stored column by column: LAPACK factors it in place, without
+        # the copies np.linalg.qr makes of its input
+        columns = np.empty((len(items), cols, rows))
+        for i, (_, a) in enumerate(items):
+            # column r nbar + t (channel r filtered by q^t/alpha, from sample nbar
+            # on) is the filtered channel r from sample t on
+            base = lfilter([1.0], a, signals, axis=-1)
+            s_r, s_k = base.strides
+            delayed = as_strided(base, (c, nbar, rows), (s_r, s_k, s_k), writeable=False)
+            np.copyto(columns[i, : c * nbar].reshape(c, nbar, rows), delayed)
+        columns[:, c * nbar :] = signals[: self.extra, nbar:]
+        block = min(QR_BLOCK, rows, cols)
+        below = _below_diagonal(min(rows, cols), cols)
+        for (k, _), matrix in zip(items, columns):
+            factored = scipy.linalg.lapack.dgeqrt(block, matrix.T, overwrite_a=True)[0]
+            factor = np.array(factored[: min(rows, cols)], order="C")
+            factor[below] = 0.0          # the reflectors LAPACK leaves below R
+            self._factors[k] = factor
+
+    def _factor_streamed(self, a: np.ndarray, nbar: int, cols: int) -> np.ndarray:
+        c = self.z.shape[1]
+        signals = self._signals
+        segments = check_segments(self.segments, self.z.shape[0])
+
+        def blocks() -> Iterator[np.ndarray]:
+            for k0, k1, lagged in lagged_blocks(signals, a, nbar, segments):
+                block = np.empty((cols, k1 - k0))
+                block[: c * nbar].reshape(c, nbar, k1 - k0)[:] = lagged
+                block[c * nbar :] = signals[: self.extra, k0:k1]
+                yield block
+
+        return streamed_factor(blocks())
 
     def solve(
         self, batches: Sequence[tuple[Sequence[np.ndarray], Sequence[Sequence[np.ndarray]], Indices]]
@@ -201,7 +245,7 @@ class RegressionCache:
         """
         m = self.z.shape[1] - self.p
         count, k_rows, q1 = small.shape
-        dof = self.z.shape[0] - nbar - q1
+        dof = self.rows(nbar) - q1
         if k_rows <= q1 or dof <= 0:
             return solve_batch(small, rhs)[0]        # short records: keep the feedthrough
         q0 = q1 - m

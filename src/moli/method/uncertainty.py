@@ -16,7 +16,8 @@ from ..errors import DataError
 from ..models.statespace import StateSpaceModel
 from ..validation.prediction import deviations
 from .covariance import matrix_covariance
-from .estimation import check_sample_count, output_regressors
+from .estimation import check_sample_count, output_regressors, regressor_blocks
+from .row_blocks import WHOLE_ROWS
 from .filters import divisors
 from .refinement import ObserverForm, observer_form
 
@@ -91,8 +92,12 @@ def estimate_covariance(model: StateSpaceModel, data: IOData) -> StateSpaceModel
     through = _feedthrough_rows(model, form)
     check_sample_count(y.shape[0], model.indices, model.m, bool(through.any()))
     filters = model.divisors if model.divisors is not None else divisors(model.alpha, model.indices)
-    phis = output_regressors(np.concatenate([y, u], axis=1), model.indices, filters, through)
-    factor, record = matrix_covariance(phis, y[max(model.indices):], model.indices, model.C, model.D, through, form.D)
+    z = np.concatenate([y, u], axis=1)
+    if z.shape[0] - max(model.indices) <= WHOLE_ROWS:
+        problems = (output_regressors(z, model.indices, filters, through), y[max(model.indices):])
+    else:                       # a long record: its problems in row blocks, in bounded memory
+        problems = lambda: regressor_blocks(z, model.indices, filters, through)  # noqa: E731
+    factor, record = matrix_covariance(problems, model.indices, model.C, model.D, through, form.D)
     attached = copy.deepcopy(model)
     attached.cov_factor, attached.info["covariance"] = factor, record
     return attached

@@ -1,0 +1,176 @@
+"""Long records: row-block factors, bounded criterion batches, the search window."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+from scipy.signal import lfilter
+
+import moli
+from moli.method import covariance, estimation, regression, row_blocks, scoring, uncertainty
+from moli.method.filters import filter_polynomial
+from moli.method.long_records import search_window
+
+
+def _record(N: int, seed: int = 0, noise: float = 0.1) -> moli.IOData:
+    rng = np.random.default_rng(seed)
+    A = np.array([[0.8, 0.2, 0.0], [-0.2, 0.8, 0.0], [0.0, 0.0, 0.5]])
+    B = rng.standard_normal((3, 2))
+    C = rng.standard_normal((2, 3))
+    u = rng.standard_normal((N, 2))
+    y = moli.StateSpaceModel(A, B, C).simulate(u)
+    return moli.IOData(y + noise * rng.standard_normal(y.shape), u)
+
+
+@pytest.mark.parametrize("block_rows", [1, 3, 7, 1000])
+def test_lagged_blocks_are_the_delays_of_each_segment_filtered_from_rest(block_rows):
+    rng = np.random.default_rng(1)
+    signals = rng.standard_normal((3, 60))
+    a = np.array([1.0, -1.2, 0.5, -0.1])          # degree 3, stable
+    segments = [(0, 25), (25, 26), (30, 60)]       # the middle one too short for a row
+    got = {k0 + i: lagged[:, :, i].copy()
+           for k0, k1, lagged in row_blocks.lagged_blocks(signals, a, 4, segments, block_rows)
+           for i in range(k1 - k0)}
+    expected = {}
+    for start, stop in segments:
+        base = lfilter([1.0], a, signals[:, start:stop], axis=1)   # from rest at the segment's start
+        for k in range(start + 4, stop):
+            expected[k] = np.stack([base[:, k - start - 3 + t] for t in range(3)], axis=1)
+    assert got.keys() == expected.keys()
+    for k in expected:
+        # lfilter with a carried state repeats the same recursion: equal up to round-off
+        np.testing.assert_allclose(got[k], expected[k], rtol=1e-12, atol=1e-14)
+
+
+def test_segments_must_be_ordered_and_inside_the_record():
+    assert row_blocks.check_segments(None, 10) == [(0, 10)]
+    for bad in ([(0, 11)], [(5, 5)], [(4, 8), (2, 3)], [(-1, 3)]):
+        with pytest.raises(ValueError, match="segments"):
+            row_blocks.check_segments(bad, 10)
+
+
+def test_streamed_factor_has_the_gram_matrix_of_the_whole_matrix():
+    X = np.random.default_rng(2).standard_normal((1000, 7))
+    R = row_blocks.streamed_factor(X[i : i + 97].T for i in range(0, 1000, 97))
+    assert R.shape == (7, 7) and np.allclose(np.tril(R, -1), 0.0)
+    # R^T R = X^T X in exact arithmetic; Householder QR keeps it to a few eps of |X|^2
+    np.testing.assert_allclose(R.T @ R, X.T @ X, rtol=0, atol=1e-11 * np.abs(X.T @ X).max())
+
+
+def _cache_solutions(z, alpha, segments=None):
+    cache = regression.RegressionCache(z, 2, "auto", segments)
+    full, parts = cache.filters(np.array([[0.6, 0.7]]), (3, 2), 1.0, 2.0)
+    return cache.thetas(cache.solve([(full, parts, (3, 2))])[0], (3, 2))
+
+
+def test_cache_streamed_in_row_blocks_solves_the_same_problems(monkeypatch):
+    data = _record(3000)
+    z = np.concatenate([data.y, data.u], axis=1)
+    whole = _cache_solutions(z, None)
+    monkeypatch.setattr(regression, "WHOLE_ROWS", 100)
+    streamed = _cache_solutions(z, None)
+    # same least-squares problems, factored in another order: round-off apart
+    for a, b in zip(whole, streamed):
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-12)
+
+
+def test_cache_segments_restart_the_filters():
+    """Two segments give the problems of both records' rows together (filters from rest in each)."""
+    first, second = _record(1500, 3), _record(1200, 4)
+    z = np.concatenate([np.concatenate([d.y, d.u], axis=1) for d in (first, second)])
+    split = _cache_solutions(z, None, [(0, 1500), (1500, 2700)])
+    # independent route: the direct regressors of each record, stacked, solved by lstsq
+    alpha = moli.filter_polynomial(0.6, 0.7, (3, 2))
+    parts = moli.method.filters.divisors(alpha, (3, 2))
+    for j in range(2):
+        phis = [estimation.output_regressors(np.concatenate([d.y, d.u], axis=1), (3, 2), parts)[j]
+                for d in (first, second)]
+        rows = np.vstack(phis)
+        rows = np.column_stack([rows, np.vstack([d.u[3:] for d in (first, second)])])
+        target = np.concatenate([d.y[3:, j] for d in (first, second)])
+        theta = np.linalg.lstsq(rows, target, rcond=None)[0]
+        got = split[j][0]
+        if np.all(got[-2:] == 0):                # the F-test left the feedthrough out
+            theta = np.append(np.linalg.lstsq(rows[:, :-2], target, rcond=None)[0], [0.0, 0.0])
+        np.testing.assert_allclose(got, theta, rtol=1e-8, atol=1e-10)
+
+
+def test_estimate_in_row_blocks_matches_the_whole_record(monkeypatch):
+    data = _record(6000, 5)
+    indices, alpha = (2, 1), filter_polynomial(0.5, 0.8, (2, 1))
+    whole = moli.estimate(data, indices, alpha)
+    for module in (estimation, uncertainty):
+        monkeypatch.setattr(module, "WHOLE_ROWS", 500)
+    streamed = moli.estimate(data, indices, alpha)
+    again = moli.estimate_covariance(whole, data)
+    for M, N in [(whole.A, streamed.A), (whole.B, streamed.B), (whole.C, streamed.C)]:
+        np.testing.assert_allclose(M, N, rtol=1e-10, atol=1e-12)   # same problems, round-off apart
+    cov = whole.cov_factor @ whole.cov_factor.T
+    # the moving sums of the scores are cumulated in other blocks: 1e-9 of the largest entry
+    for other in (streamed, again):
+        np.testing.assert_allclose(other.cov_factor @ other.cov_factor.T, cov, rtol=0,
+                                   atol=1e-9 * np.abs(cov).max())
+    assert streamed.info["covariance"] == whole.info["covariance"]
+
+
+def test_streamed_covariance_refuses_a_rank_deficient_problem():
+    rng = np.random.default_rng(6)
+    phi = rng.standard_normal((300, 2))
+    phi[:, 1] = phi[:, 0]
+    with pytest.raises(moli.DataError, match="rank deficient"):
+        covariance.streamed_sandwich_factor(lambda: iter([([phi], rng.standard_normal((300, 1)))]))
+
+
+def test_criterion_in_bounded_batches_scores_each_model_alike(monkeypatch):
+    data = _record(2000, 7)
+    z = np.concatenate([data.y, data.u], axis=1)
+    scorer = scoring.FilterScorer(z, (2, 1), 1.0, 2.0, regression.RegressionCache(z, 2, "auto"),
+                                  trend_degree=2, max_radius=1.0)
+    etas = moli.method.tuning.default_omega(1.0, "wide")
+    models = scorer.fit(etas)
+    whole = scorer.criterion(models)
+    monkeypatch.setattr(scoring, "CRITERION_BATCH_VALUES", 3 * z.shape[0] * 2)
+    # each model's simulation and score do not depend on its batch: equal to the bit
+    np.testing.assert_array_equal(scorer.criterion(models), whole)
+
+
+def test_search_window_is_the_head_of_a_long_record():
+    data = _record(1000).remove_means()
+    assert search_window(data, None) is data and search_window(data, 1000) is data
+    head = search_window(data, 600)
+    np.testing.assert_array_equal(head.y, data.y[:600])
+    np.testing.assert_array_equal(head.y_offset, data.y_offset)
+
+
+def test_long_record_search_reestimates_the_selected_list_on_the_whole_record():
+    data = _record(4000, 8)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = moli.identify(data, nmax=4, search_samples=800, feedthrough=False,
+                               output_filters=False, refine="none", noise_model=False)
+    model = result.model
+    assert model.info["search_samples"] == 800 and model.info["estimation_samples"] == result.estimation.N
+    # the same list and filter estimated by moli.estimate (direct regressors, another
+    # route to the same least squares) on the whole centred estimation record
+    direct = moli.estimate(result.estimation, model.indices, model.alpha)
+    for M, N in [(model.A, direct.A), (model.B, direct.B), (model.C, direct.C)]:
+        np.testing.assert_allclose(M, N, rtol=1e-8, atol=1e-10)
+    np.testing.assert_allclose(result.selected.vaf, moli.compare(model, result.validation).vaf)
+
+
+def test_long_record_search_recovers_a_noise_free_plant():
+    data = _record(3000, 9, noise=0.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = moli.identify(data, order=3, search_samples=600, refine="none", center=False)
+    truth = moli.StateSpaceModel(*_plant(9))
+    # exact recovery on noise-free data: Markov parameters to round-off of the fit
+    np.testing.assert_allclose(result.model.markov(20), truth.markov(20), atol=1e-6)
+
+
+def _plant(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    A = np.array([[0.8, 0.2, 0.0], [-0.2, 0.8, 0.0], [0.0, 0.0, 0.5]])
+    return A, rng.standard_normal((3, 2)), rng.standard_normal((2, 3))
