@@ -174,3 +174,16 @@ def _plant(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     rng = np.random.default_rng(seed)
     A = np.array([[0.8, 0.2, 0.0], [-0.2, 0.8, 0.0], [0.0, 0.0, 0.5]])
     return A, rng.standard_normal((3, 2)), rng.standard_normal((2, 3))
+
+
+def test_screening_a_long_record_finds_what_the_whole_hankel_matrix_shows(monkeypatch):
+    from moli.data import quality
+
+    rng = np.random.default_rng(10)
+    rich = rng.standard_normal((3000, 2))
+    poor = np.column_stack([rich[:, 0], rich[:, 0] + 1e-7 * rng.standard_normal(3000)])
+    whole = [quality._exciting(u, L) for u in (rich, poor) for L in (1, 3)]
+    monkeypatch.setattr(quality, "WHOLE_ROWS", 100)
+    monkeypatch.setattr(quality, "BLOCK_ROWS", 250)
+    # the blocked factor has the Hankel matrix's singular values: the same verdicts
+    assert [quality._exciting(u, L) for u in (rich, poor) for L in (1, 3)] == whole == [True, True, False, False]

@@ -36,6 +36,10 @@ CLIPPED_SHARE = 0.05
 # Fewer distinct levels than this (on records long enough to show more) is a coarse
 # quantization: the model sees steps, not the plant's response.
 QUANTIZATION_LEVELS = 16
+# Hankel matrices of longer records are reduced to their triangular factor in blocks
+# of BLOCK_ROWS rows (same singular values, memory bounded by a block).
+WHOLE_ROWS = 2**15
+BLOCK_ROWS = 8192
 
 
 @dataclass(frozen=True)
@@ -71,7 +75,16 @@ def _exciting(u: np.ndarray, L: int) -> bool:
     rows = N - L + 1
     if rows <= L * m:
         return False
-    hankel = np.concatenate([u[i : i + rows] for i in range(L)], axis=1)
+    if rows <= WHOLE_ROWS:
+        hankel = np.concatenate([u[i : i + rows] for i in range(L)], axis=1)
+    else:
+        # a long record: the Hankel matrix's triangular factor, built block by block,
+        # has its singular values and column norms without holding L copies of u
+        hankel = np.zeros((0, L * m))
+        for start in range(0, rows, BLOCK_ROWS):
+            stop = min(start + BLOCK_ROWS, rows)
+            block = np.concatenate([u[i + start : i + stop] for i in range(L)], axis=1)
+            hankel = np.linalg.qr(np.concatenate([hankel, block]), mode="r")
     norms = np.linalg.norm(hankel, axis=0)
     s = np.linalg.svd(hankel / np.where(norms > 0, norms, 1.0), compute_uv=False)
     return bool(s[-1] > 0 and s[0] / s[-1] <= EXCITATION_CONDITION)

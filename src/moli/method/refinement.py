@@ -201,8 +201,12 @@ class _Problem:
         free = free_response(A, C, self.y.shape[0])
         return (free * self.weights[None, :, None]).reshape(-1, self.n)
 
-    def jacobian(self, theta: np.ndarray, yhat: np.ndarray) -> np.ndarray:
-        """d yhat / d theta, weighted, shape (N p, parameters)."""
+    def jacobian(self, theta: np.ndarray, yhat: np.ndarray, residual: np.ndarray) -> np.ndarray:
+        """``[d yhat / d theta, residual]``, weighted, shape (N p, parameters + 1).
+
+        Built in place, with the residual as its last column: the record-long matrix
+        is the least-squares problem's, held once.
+        """
         n, p, m = self.n, self.p, self.m
         form, _ = self.unpack(theta)
         A, _, C = form.matrices()
@@ -219,6 +223,7 @@ class _Problem:
             direct = np.outer(yx[:, j], H[:, i])                           # dC x = H e_i (C x)_j
             through = np.einsum("tpa,a->tp", S[:, :, :, m + j], form.D @ H[:, i])
             g_cols.append(direct + through)
+        del S                                      # its parts are in cols: free it before the matrix
         if g_cols:
             cols.append(np.stack(g_cols, axis=2))
         if self.feedthrough:                       # F[i, j]: u_j straight to y_i
@@ -226,8 +231,15 @@ class _Problem:
             cols.append((eye[None, :, :, None] * self.u[:, None, None, :]).reshape(N, p, p * m))
         if self.fit_x0:
             cols.append(free)
-        jac = np.concatenate(cols, axis=2) * self.weights[None, :, None]
-        return jac.reshape(N * p, -1)
+        count = sum(c.shape[2] for c in cols)
+        augmented = np.empty((N, p, count + 1))
+        jac = augmented[:, :, :count]
+        np.concatenate(cols, axis=2, out=jac)
+        del cols
+        jac *= self.weights[None, :, None]
+        augmented = augmented.reshape(N * p, count + 1)
+        augmented[:, count] = residual
+        return augmented
 
 
 def refine(
@@ -311,7 +323,8 @@ def refine(
     damping = 1e-3
     if stable:
         while accepted < iterations:
-            jac = problem.jacobian(theta, yhat)
+            augmented = problem.jacobian(theta, yhat, residual)
+            jac = augmented[:, :-1]
             norms = np.linalg.norm(jac, axis=0)
             norms[norms == 0] = 1.0
             if scale is None:
@@ -323,7 +336,8 @@ def refine(
             # parameters' size instead of the record's
             if not (np.all(np.isfinite(jac)) and np.all(np.isfinite(residual))):
                 break                           # nothing sound to step along: keep what we have
-            reduced = np.linalg.qr(np.column_stack([jac, residual]), mode="r")
+            reduced = np.linalg.qr(augmented, mode="r")
+            del jac, augmented
             improved = False
             while damping < 1e8:
                 # solved for the step in units of each column's norm: the parameters'

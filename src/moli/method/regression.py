@@ -34,7 +34,7 @@ FEEDTHROUGH_LEVEL = 1e-3
 QR_BLOCK = 8
 # Filters factored whole at a time hold at most this many bytes of matrices: sharing
 # one allocation saves time on short records, and the bound keeps it off long ones.
-BATCH_BYTES = 2**26
+BATCH_BYTES = 2**25
 
 
 class RegressionCache:

@@ -33,9 +33,9 @@ MAX_TREND_DEGREE = 5
 # lists of 18 models, 3 MB, were scored 11-21 % slower together than one by one).
 JOINT_BATCH_VALUES = 2**17
 # The models of one criterion call are simulated at most this many values at a time
-# (32 MB): a long record's batch of candidates would otherwise hold models x N x p
+# (16 MB): a long record's batch of candidates would otherwise hold models x N x p
 # simulated values, and the error's copy beside them.
-CRITERION_BATCH_VALUES = 2**22
+CRITERION_BATCH_VALUES = 2**21
 
 
 def check_trend_degree(degree: object) -> int:
