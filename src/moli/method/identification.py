@@ -106,8 +106,9 @@ class IdentificationResult:
         lines = [
             f"moli identification: {self.estimation.p} outputs, {self.estimation.m} inputs, "
             f"Ts = {self.estimation.Ts:g}",
-            f"estimation: {self.estimation.N} samples; validation: {self.validation.N} samples "
-            f"({self.validation_source})",
+            f"estimation: {self.estimation.N} samples" + (f" (searched on the first {searched})" if (
+                searched := self.model.info.get("search_samples")) else "")
+            + f"; validation: {self.validation.N} samples ({self.validation_source})",
             f"VAF: validation, simulation from {self.options.x0} initial state, percent"
             + "".join(f"; y{i + 1} = {nm}" for i, nm in enumerate(names) if nm != f"y{i + 1}"),
             f"options: tuning {opts.tuning}, s = {opts.s:g}, feedthrough {opts.feedthrough}, "
