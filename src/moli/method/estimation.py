@@ -82,17 +82,19 @@ def output_regressors(
 
 def regressor_blocks(
     z: np.ndarray, indices: Indices, alphas: Sequence[np.ndarray], through: np.ndarray | None = None,
+    segments: Sequence[tuple[int, int]] | None = None,
 ) -> Iterator[tuple[list[np.ndarray], np.ndarray]]:
     """:func:`output_regressors` and the targets ``y`` in row blocks (bounded memory).
 
     Yields each block's regressors of every output, shapes (rows_b, k_j), and its
     targets, shape (rows_b, p); concatenated, the blocks are :func:`output_regressors`
-    and ``z[max(indices):, :p]``.
+    and ``z[max(indices):, :p]``. With ``segments`` (``(start, stop)`` ranges), each is
+    filtered from rest and contributes its rows from ``max(indices)`` samples on.
     """
     p = len(indices)
     skip = max(indices)
     signals = np.ascontiguousarray(z.T)
-    segments = check_segments(None, z.shape[0])
+    segments = check_segments(segments, z.shape[0])
     streams = [lagged_blocks(signals, np.asarray(a, float), skip, segments) for a in alphas]
     for parts in zip(*streams):
         k0, k1 = parts[0][:2]
