@@ -190,3 +190,17 @@ def test_screening_a_long_record_finds_what_the_whole_hankel_matrix_shows(monkey
     monkeypatch.setattr(quality, "BLOCK_ROWS", 250)
     # the blocked factor has the Hankel matrix's singular values: the same verdicts
     assert [quality._exciting(u, L) for u in (rich, poor) for L in (1, 3)] == whole == [True, True, False, False]
+
+
+def test_auto_delays_of_a_long_record_come_from_its_search_window():
+    rng = np.random.default_rng(11)
+    u = rng.standard_normal((3000, 1))
+    y = np.zeros((3000, 1))
+    y[3:, 0] = u[:-3, 0] + 0.01 * rng.standard_normal(2997)     # a pure delay of 3 samples
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = moli.identify(moli.IOData(y, u), nmax=2, delays="auto", search_samples=600,
+                               refine="none", noise_model=False)
+    # y_k = u_(k-3): the first significant lag is 3, so the model's dead time is 2
+    # (the MOLI regressors supply one step of delay themselves)
+    assert result.model.input_delays == (2,)

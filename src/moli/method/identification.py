@@ -227,7 +227,9 @@ def identify(
     radius = opts.max_radius
     if radius == "auto":
         radius = float(np.exp(-AUTO_RADIUS_SPAN / min(estimation.N, opts.search_samples or estimation.N)))
-    delays = _input_delays(opts.delays, estimation)
+    # "auto" delays come from the search window of a long record (docs/method.md §15)
+    delays = _input_delays(opts.delays, search_window(estimation, opts.search_samples)
+                           if opts.delays == "auto" else estimation)
     check_sample_count(estimation.N - max(delays), (1,) * p, estimation.m, opts.feedthrough is not False)
     screen(estimation, nmax, stacklevel=2)
     start = time.perf_counter()

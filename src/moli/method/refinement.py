@@ -23,6 +23,7 @@ accepted only if it lowers ``V`` *and* keeps every pole inside the circle of rad
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Iterator
 
 import numpy as np
 import scipy.linalg
@@ -125,10 +126,15 @@ class RefineResult:
     rejected_unstable: int
 
 
-def _sensitivities(A: np.ndarray, C: np.ndarray, signals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Responses ``C (qI - A)^-1 e_a v`` for every state ``a`` and signal ``v``.
+def _sensitivities(
+    A: np.ndarray, C: np.ndarray, signals: np.ndarray
+) -> tuple[np.ndarray, Iterator[tuple[int, np.ndarray]]]:
+    """Responses ``C (qI - A)^-1 e_a v`` for every state ``a`` and signal ``v``, one signal at a time.
 
-    Returns ``S`` of shape (N, p, n, k) and the free responses ``C A^t e_a``, (N, p, n).
+    Returns the free responses ``C A^t e_a``, (N, p, n), and an iterator of ``(c,
+    S_c)``, ``S_c[t, :, a]`` the response to signal ``c`` injected into state ``a``
+    (each array valid until the next): the responses to all ``k`` signals at once
+    would hold ``N p n k`` values, many times the record's size.
     """
     import scipy.fft  # slow to import: only when refining
 
@@ -139,13 +145,17 @@ def _sensitivities(A: np.ndarray, C: np.ndarray, signals: np.ndarray) -> tuple[n
     size = scipy.fft.next_fast_len(2 * N - 1, real=True)
     H = scipy.fft.rfft(free, size, axis=0)            # (F, p, n)
     V = scipy.fft.rfft(signals, size, axis=0)         # (F, k)
-    out = np.zeros(free.shape + (signals.shape[1],))
-    # one signal at a time: the products of all of them at once hold (F, p, n, k)
-    # complex values, several times the record's size
-    for c in range(signals.shape[1]):
-        # one-step delay of (qI - A)^-1
-        out[1:, :, :, c] = scipy.fft.irfft(H * V[:, c, None, None], size, axis=0)[: N - 1]
-    return out, free
+
+    def responses() -> Iterator[tuple[int, np.ndarray]]:
+        # stored with a stride between states, as one signal's slice of all of them
+        # at once was: the products below then sum in the same order, to the bit
+        buffer = np.zeros(free.shape + (2,))
+        for c in range(signals.shape[1]):
+            # one-step delay of (qI - A)^-1
+            buffer[1:, :, :, 0] = scipy.fft.irfft(H * V[:, c, None, None], size, axis=0)[: N - 1]
+            yield c, buffer[:, :, :, 0]
+
+    return free, responses()
 
 
 class _Problem:
@@ -204,39 +214,38 @@ class _Problem:
     def jacobian(self, theta: np.ndarray, yhat: np.ndarray, residual: np.ndarray) -> np.ndarray:
         """``[d yhat / d theta, residual]``, weighted, shape (N p, parameters + 1).
 
-        Built in place, with the residual as its last column: the record-long matrix
-        is the least-squares problem's, held once.
+        Built in place, one signal's sensitivities at a time, with the residual as its
+        last column: the record-long matrix is the least-squares problem's, held once.
         """
         n, p, m = self.n, self.p, self.m
         form, _ = self.unpack(theta)
         A, _, C = form.matrices()
         yx = yhat - self.u @ form.F.T                   # C x: the part the state produces
-        S, free = _sensitivities(A, C, np.concatenate([self.u, yx], axis=1))
+        free, responses = _sensitivities(A, C, np.concatenate([self.u, yx], axis=1))
         N = self.y.shape[0]
-        cols = [
-            S[:, :, :, m:].reshape(N, p, n * p),       # D[a, b]: signal yhat_b into state a
-            S[:, :, :, :m].reshape(N, p, n * m),       # B[a, b]: input u_b into state a
-        ]
         H = np.linalg.inv(np.eye(p) - form.G)
-        g_cols = []
-        for i, j in zip(*self.lower):
-            direct = np.outer(yx[:, j], H[:, i])                           # dC x = H e_i (C x)_j
-            through = np.einsum("tpa,a->tp", S[:, :, :, m + j], form.D @ H[:, i])
-            g_cols.append(direct + through)
-        del S                                      # its parts are in cols: free it before the matrix
-        if g_cols:
-            cols.append(np.stack(g_cols, axis=2))
+        pairs = list(zip(*self.lower))
+        # columns: D (n p), B (n m), G's lower part, F (p m) with feedthrough, x0 (n)
+        at_g = n * p + n * m
+        at_f = at_g + len(pairs)
+        count = at_f + (p * m if self.feedthrough else 0) + (n if self.fit_x0 else 0)
+        augmented = np.empty((N, p, count + 1))
+        for c, S_c in responses:
+            if c < m:                                   # B[a, c]: input u_c into state a
+                augmented[:, :, n * p + c : at_g : m] = S_c
+                continue
+            j = c - m
+            augmented[:, :, j : n * p : p] = S_c        # D[a, j]: signal yhat_j into state a
+            for q, (i, jj) in enumerate(pairs):
+                if jj == j:                             # dC x = H e_i (C x)_j, and through D
+                    direct = np.outer(yx[:, j], H[:, i])
+                    augmented[:, :, at_g + q] = direct + np.einsum("tpa,a->tp", S_c, form.D @ H[:, i])
         if self.feedthrough:                       # F[i, j]: u_j straight to y_i
             eye = np.eye(p)
-            cols.append((eye[None, :, :, None] * self.u[:, None, None, :]).reshape(N, p, p * m))
+            augmented[:, :, at_f : at_f + p * m] = (eye[None, :, :, None] * self.u[:, None, None, :]).reshape(N, p, p * m)
         if self.fit_x0:
-            cols.append(free)
-        count = sum(c.shape[2] for c in cols)
-        augmented = np.empty((N, p, count + 1))
-        jac = augmented[:, :, :count]
-        np.concatenate(cols, axis=2, out=jac)
-        del cols
-        jac *= self.weights[None, :, None]
+            augmented[:, :, count - n : count] = free
+        augmented[:, :, :count] *= self.weights[None, :, None]
         augmented = augmented.reshape(N * p, count + 1)
         augmented[:, count] = residual
         return augmented
