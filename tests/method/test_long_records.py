@@ -204,3 +204,16 @@ def test_auto_delays_of_a_long_record_come_from_its_search_window():
     # y_k = u_(k-3): the first significant lag is 3, so the model's dead time is 2
     # (the MOLI regressors supply one step of delay themselves)
     assert result.model.input_delays == (2,)
+
+
+def test_tall_factor_in_row_blocks_has_the_gram_matrix_of_the_whole(monkeypatch):
+    X = np.random.default_rng(12).standard_normal((5000, 9))
+    whole = row_blocks.tall_factor(X)
+    np.testing.assert_array_equal(whole, np.linalg.qr(X, mode="r"))     # short: the same call
+    monkeypatch.setattr(row_blocks, "WHOLE_TALL_ROWS", 1000)
+    monkeypatch.setattr(row_blocks, "BLOCK_ROWS", 700)
+    blocked = row_blocks.tall_factor(X)
+    # sums of squares in blocks: the norms to round-off
+    np.testing.assert_allclose(row_blocks.column_norms(X), np.linalg.norm(X, axis=0), rtol=1e-13)
+    # Householder QR in another order: R^T R = X^T X to a few eps of |X|^2
+    np.testing.assert_allclose(blocked.T @ blocked, whole.T @ whole, rtol=0, atol=1e-11 * np.abs(X.T @ X).max())

@@ -27,6 +27,7 @@ from ..models.simulation import free_response, simulate_batch
 from ..models.statespace import StateSpaceModel
 from ..validation.prediction import deviations, predicted_deviations
 from ..validation.whitening import fit_ar
+from .row_blocks import column_norms, tall_factor
 
 __all__ = ["estimate_noise_model"]
 
@@ -78,13 +79,13 @@ def _gain_regression(F: np.ndarray, C: np.ndarray, target: np.ndarray, eps: np.n
                                          np.broadcast_to(C, (n * p, p, n)), eps).transpose(1, 2, 0)
     rows[:, :, n * p : n * p + n] = free_response(F, C, N)
     rows[:, :, -1] = target
-    norms = np.linalg.norm(design, axis=0)
+    norms = column_norms(design)
     norms[norms == 0.0] = 1.0
     design /= norms
     # only the triangular factor of [columns | target]: the small system it leaves has
     # the least-squares solution (lstsq: rank deficiency is possible, e.g. a state that
     # no innovation reaches)
-    R = np.linalg.qr(design, mode="r")
+    R = tall_factor(design)
     solution = np.linalg.lstsq(R[:-1, :-1], R[:-1, -1], rcond=None)[0]
     return (solution * norms[-1] / norms[:-1])[: n * p].reshape(n, p)
 

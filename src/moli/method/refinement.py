@@ -32,6 +32,7 @@ from ..data.iodata import IOData
 from ..errors import DataError, OptionError
 from .estimation import _filter_companion
 from .filters import divisors
+from .row_blocks import column_norms, tall_factor
 from ..models.delays import shift_inputs
 from ..models.statespace import StateSpaceModel
 from ..models.simulation import free_response, simulate_batch
@@ -242,7 +243,8 @@ class _Problem:
                     augmented[:, :, at_g + q] = direct + np.einsum("tpa,a->tp", S_c, form.D @ H[:, i])
         if self.feedthrough:                       # F[i, j]: u_j straight to y_i
             eye = np.eye(p)
-            augmented[:, :, at_f : at_f + p * m] = (eye[None, :, :, None] * self.u[:, None, None, :]).reshape(N, p, p * m)
+            for i in range(p):                     # one output at a time: N p m values, not N p p m
+                augmented[:, i, at_f : at_f + p * m] = (eye[i, None, :, None] * self.u[:, None, :]).reshape(N, p * m)
         if self.fit_x0:
             augmented[:, :, count - n : count] = free
         augmented[:, :, :count] *= self.weights[None, :, None]
@@ -334,7 +336,7 @@ def refine(
         while accepted < iterations:
             augmented = problem.jacobian(theta, yhat, residual)
             jac = augmented[:, :-1]
-            norms = np.linalg.norm(jac, axis=0)
+            norms = column_norms(jac)
             norms[norms == 0] = 1.0
             if scale is None:
                 scale = norms.copy()
@@ -345,7 +347,7 @@ def refine(
             # parameters' size instead of the record's
             if not (np.all(np.isfinite(jac)) and np.all(np.isfinite(residual))):
                 break                           # nothing sound to step along: keep what we have
-            reduced = np.linalg.qr(augmented, mode="r")
+            reduced = tall_factor(augmented)
             del jac, augmented
             improved = False
             while damping < 1e8:

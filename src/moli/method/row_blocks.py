@@ -20,7 +20,7 @@ from typing import Iterable, Iterator, Sequence
 import numpy as np
 import scipy.linalg.lapack
 
-__all__ = ["BLOCK_ROWS", "WHOLE_ROWS", "check_segments", "lagged_blocks", "fold", "streamed_factor"]
+__all__ = ["BLOCK_ROWS", "WHOLE_ROWS", "check_segments", "lagged_blocks", "fold", "streamed_factor", "tall_factor", "column_norms"]
 
 # Rows per block: a block of a few dozen columns is then a few MB, small enough to stay
 # near the cache and to bound memory, large enough that the per-block Python work is
@@ -29,6 +29,10 @@ BLOCK_ROWS = 8192
 # Records of at most this many rows are solved whole, as they always were (so their
 # results are the same to the last bit); longer ones in row blocks.
 WHOLE_ROWS = 2**15
+# Matrices of at most this many rows whose factor np.linalg.qr computed whole (the
+# Jacobian of the refinement, the noise model's regression: records times outputs)
+# still are; taller ones are factored in row blocks (tall_factor).
+WHOLE_TALL_ROWS = 2**17
 # LAPACK dgeqrt's block size (see moli.method.regression.QR_BLOCK).
 QR_BLOCK = 8
 
@@ -116,3 +120,31 @@ def streamed_factor(blocks: Iterable[np.ndarray]) -> np.ndarray:
     for block in blocks:
         r = fold(r, block)
     return r
+
+
+def tall_factor(matrix: np.ndarray) -> np.ndarray:
+    """Triangular factor of a tall matrix: ``np.linalg.qr(matrix, mode="r")`` up to the rows' signs.
+
+    Matrices of at most :data:`WHOLE_TALL_ROWS` rows go to ``np.linalg.qr`` as they
+    always did (the same result to the bit); taller ones are folded in blocks of
+    :data:`BLOCK_ROWS` rows, without the copy of the whole matrix ``np.linalg.qr`` makes.
+    """
+    if matrix.shape[0] <= WHOLE_TALL_ROWS:
+        return np.linalg.qr(matrix, mode="r")
+    return streamed_factor(matrix[i : i + BLOCK_ROWS].T for i in range(0, matrix.shape[0], BLOCK_ROWS))
+
+
+def column_norms(matrix: np.ndarray) -> np.ndarray:
+    """``np.linalg.norm(matrix, axis=0)``, by row blocks beyond :data:`WHOLE_TALL_ROWS` rows.
+
+    Short matrices get numpy's norm as they always did; taller ones are summed block by
+    block, without the squared copy of the whole matrix.
+    """
+    if matrix.shape[0] <= WHOLE_TALL_ROWS:
+        return np.linalg.norm(matrix, axis=0)
+    total = np.zeros(matrix.shape[1])
+    for i in range(0, matrix.shape[0], BLOCK_ROWS):
+        block = matrix[i : i + BLOCK_ROWS]
+        total += np.einsum("ij,ij->j", block, block)
+    return np.sqrt(total)
+
