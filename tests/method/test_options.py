@@ -36,6 +36,7 @@ BAD = {
     "noise_model": ("yes", None),
     "regularization": (1, "lasso"),
     "delays": (1.5, -1),
+    "search_samples": (2.0**15, 499),
 }
 
 
@@ -94,6 +95,7 @@ def test_presets_show_what_they_set():
 @pytest.mark.parametrize("opts", [
     IdentifyOptions(), IdentifyOptions.paper(nmax=9, seed=3), IdentifyOptions.bounded(),
     IdentifyOptions(omega=[(0.1, 0.7), (0.2, 1.1)], refine="path", max_radius=0.99),
+    IdentifyOptions(search_samples=None), IdentifyOptions(search_samples=4096),
 ])
 def test_json_round_trip(opts):
     assert IdentifyOptions.from_dict(json.loads(json.dumps(opts.to_dict()))) == opts

@@ -112,7 +112,9 @@ def test_analytic_jacobian_matches_finite_differences():
     problem = _Problem(observer_form(start), data.u, data.y, fit_x0=True)
     theta = problem.pack(observer_form(start), np.array([0.3, -0.2, 0.1]))
     yhat, _, _ = problem.simulate(theta)
-    analytic = problem.jacobian(theta, yhat)
+    augmented = problem.jacobian(theta, yhat, problem.residual(yhat))
+    analytic = augmented[:, :-1]
+    np.testing.assert_array_equal(augmented[:, -1], problem.residual(yhat))
     numeric = np.empty_like(analytic)
     for k in range(theta.size):
         step = np.zeros(theta.size)

@@ -38,6 +38,10 @@ CLIPPED_SHARE = 0.05
 # Fewer distinct levels than this (on records long enough to show more) is a coarse
 # quantization: the model sees steps, not the plant's response.
 QUANTIZATION_LEVELS = 16
+# Hankel matrices of longer records are reduced to their triangular factor in blocks
+# of BLOCK_ROWS rows (same singular values, memory bounded by a block).
+WHOLE_ROWS = 2**15
+BLOCK_ROWS = 8192
 
 
 @dataclass(frozen=True)
@@ -74,11 +78,24 @@ def _exciting(u: np.ndarray, L: int, bounds: tuple[tuple[int, int], ...]) -> boo
     segment each: no window spans a boundary.
     """
     m = u.shape[1]
-    blocks = [np.concatenate([u[a + i : b - L + 1 + i] for i in range(L)], axis=1)
-              for a, b in bounds if b - a >= L]
-    if sum(block.shape[0] for block in blocks) <= L * m:
+    # the rows of segment (a, b) are the windows u[k : k + L], k = a .. b - L
+    spans = [(a, b - L + 1) for a, b in bounds if b - a >= L]
+    rows = sum(stop - start for start, stop in spans)
+    if rows <= L * m:
         return False
-    hankel = np.concatenate(blocks)
+
+    def windows(start: int, stop: int) -> np.ndarray:
+        return np.concatenate([u[start + i : stop + i] for i in range(L)], axis=1)
+
+    if rows <= WHOLE_ROWS:
+        hankel = np.concatenate([windows(a, b) for a, b in spans])
+    else:
+        # a long record: the Hankel matrix's triangular factor, built block by block,
+        # has its singular values and column norms without holding L copies of u
+        hankel = np.zeros((0, L * m))
+        for a, b in spans:
+            for start in range(a, b, BLOCK_ROWS):
+                hankel = np.linalg.qr(np.concatenate([hankel, windows(start, min(start + BLOCK_ROWS, b))]), mode="r")
     norms = np.linalg.norm(hankel, axis=0)
     s = np.linalg.svd(hankel / np.where(norms > 0, norms, 1.0), compute_uv=False)
     return bool(s[-1] > 0 and s[0] / s[-1] <= EXCITATION_CONDITION)

@@ -18,14 +18,15 @@ realization (docs/method.md §4, §8); :func:`matrix_directions` is its Jacobian
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import Callable, Iterable, Iterator, Sequence
 
 import numpy as np
 import scipy.linalg
 
 from ..errors import DataError
+from .row_blocks import fold
 
-__all__ = ["sandwich_factor", "matrix_directions", "matrix_covariance"]
+__all__ = ["sandwich_factor", "streamed_sandwich_factor", "matrix_directions", "matrix_covariance"]
 
 # A problem whose column-scaled factor has max|r_ii| / min|r_ii| beyond this gets the
 # minimum-norm solution in the estimation (solve_batch): its parameters are not
@@ -64,6 +65,11 @@ def _bandwidth(scores: np.ndarray, rows: int) -> int:
     """
     lagged = np.einsum("ta,ta->a", scores[1:], scores[:-1])
     power = np.einsum("ta,ta->a", scores[:-1], scores[:-1])
+    return _width(lagged, power, rows)
+
+
+def _width(lagged: np.ndarray, power: np.ndarray, rows: int) -> int:
+    """:func:`_bandwidth` from the scores' lag-one and lag-zero sums over ``rows`` rows."""
     rho = np.divide(lagged, power, out=np.zeros_like(lagged), where=power > 0)
     rho = np.clip(rho, -MAX_SCORE_CORRELATION, MAX_SCORE_CORRELATION)
     alpha1 = np.sum(4 * rho**2 / (1 - rho) ** 4) / np.sum((1 + rho) ** 2 / (1 - rho) ** 2)
@@ -131,12 +137,7 @@ def sandwich_factor(
             # block by block: a tall QR in one piece runs out of cache and is several times slower
             block = np.column_stack([phi[start : start + BLOCK_ROWS] / norms, targets[start : start + BLOCK_ROWS, j]])
             r = np.linalg.qr(np.concatenate([r, block]), mode="r")
-        diag = np.abs(np.diagonal(r)[:k])
-        if not diag.min() > 0 or diag.max() / diag.min() >= RANK_LIMIT:
-            raise DataError(
-                f"the least-squares problem of output {j + 1} is rank deficient: its parameters, "
-                "and so their covariance, are not determined by the data"
-            )
+        _check_rank(np.abs(np.diagonal(r)[:k]), j)
         solution = scipy.linalg.solve_triangular(r[:k, :k], r[:k, k])
         np.divide(phi, norms, out=scores)
         scores *= (targets[:, j] - scores @ solution)[:, None]
@@ -151,16 +152,114 @@ def sandwich_factor(
     for start in range(0, total, BLOCK_ROWS):
         block = _moving_sums(stacked, width, start, min(start + BLOCK_ROWS, total))
         meat += block.T @ block
+    return _sandwich(meat / width, solved, splits), thetas, width
+
+
+def _sandwich(long_run: np.ndarray, solved: list[tuple[np.ndarray, np.ndarray]], splits: np.ndarray) -> np.ndarray:
+    """``F`` with ``F^T F = (R^T R)^-1 S (R^T R)^-1`` per output block, ``S`` the long-run covariance."""
     # any square root of the (positive semidefinite) long-run covariance will do:
-    # meat = root^T root, with round-off's tiny negative eigenvalues set to zero
-    values, vectors = np.linalg.eigh(meat / width)
+    # S = root^T root, with round-off's tiny negative eigenvalues set to zero
+    values, vectors = np.linalg.eigh(long_run)
     root = np.sqrt(np.clip(values, 0.0, None))[:, None] * vectors.T
     parts = []
     for (r, scale), columns in zip(solved, np.split(root, splits, axis=1)):
         # root (R^T R)^-1 by two triangular solves
         inner = scipy.linalg.solve_triangular(r, columns.T, trans="T")
         parts.append(scipy.linalg.solve_triangular(r, inner).T / scale)
-    return np.concatenate(parts, axis=1), thetas, width
+    return np.concatenate(parts, axis=1)
+
+
+def _check_rank(diag: np.ndarray, j: int) -> None:
+    if not diag.min() > 0 or diag.max() / diag.min() >= RANK_LIMIT:
+        raise DataError(
+            f"the least-squares problem of output {j + 1} is rank deficient: its parameters, "
+            "and so their covariance, are not determined by the data"
+        )
+
+
+def streamed_sandwich_factor(
+    blocks: Callable[[], Iterable[tuple[list[np.ndarray], np.ndarray]]], breaks: Sequence[int] = (),
+) -> tuple[np.ndarray, list[np.ndarray], int, int]:
+    """:func:`sandwich_factor` of problems given in row blocks, in memory bounded by a block.
+
+    ``blocks()`` returns a fresh iterator of ``(phis, targets)`` row blocks (as
+    :func:`moli.method.estimation.regressor_blocks` yields them); it is read three
+    times: the triangular factors, the scores' lag-one correlation (the kernel width),
+    and the moving sums of the scores. ``breaks``: the rows where the record's segments
+    start, as :func:`sandwich_factor` takes them (no lag spans a boundary). Same
+    quantities as :func:`sandwich_factor` up to round-off; also returns the number of rows.
+    """
+    factors: list[np.ndarray | None] = []
+    rows = 0
+    for phis, targets in blocks():
+        factors = factors or [None] * len(phis)
+        for j, phi in enumerate(phis):
+            factors[j] = fold(factors[j], np.concatenate([phi, targets[:, j : j + 1]], axis=1).T)
+        rows += targets.shape[0]
+    solved, thetas, scales = [], [], []
+    for j, r in enumerate(factors):
+        k = r.shape[1] - 1
+        norms = np.linalg.norm(r[:, :k], axis=0)          # the regressors' column norms
+        norms[norms == 0] = 1.0
+        scaled = r / np.append(norms, 1.0)                 # the factor of [phi / norms, y]
+        _check_rank(np.abs(np.diagonal(scaled)[:k]), j)
+        solution = scipy.linalg.solve_triangular(scaled[:k, :k], scaled[:k, k])
+        thetas.append(solution / norms)
+        scales.append((norms, solution))
+        solved.append((scaled[:k, :k], norms / math.sqrt(rows / (rows - k))))
+    splits = np.cumsum([len(norms) for norms, _ in scales])[:-1]
+
+    def scores() -> Iterable[np.ndarray]:
+        for phis, targets in blocks():
+            parts = []
+            for j, (phi, (norms, solution)) in enumerate(zip(phis, scales)):
+                scaled = phi / norms
+                parts.append(scaled * (targets[:, j] - scaled @ solution)[:, None])
+            yield np.concatenate(parts, axis=1)
+
+    size = int(sum(len(norms) for norms, _ in scales))
+    lagged, power, previous = np.zeros(size), np.zeros(size), None
+    # one zero row at each boundary keeps the lag-1 products inside the segments
+    for block in _separated_blocks(scores(), breaks, 1, size):
+        joined = block if previous is None else np.concatenate([previous, block])
+        lagged += np.einsum("ta,ta->a", joined[1:], joined[:-1])
+        power += np.einsum("ta,ta->a", joined[:-1], joined[:-1])
+        previous = block[-1:]
+    width = _width(lagged, power, rows)
+    meat = np.zeros((size, size))
+    history = np.zeros((width - 1, size))               # the scores before the block (zero before the record)
+    for block in _with_zero_tail(_separated_blocks(scores(), breaks, width - 1, size), width - 1, size):
+        window = np.concatenate([np.zeros((1, size)), history, block])
+        sums = np.cumsum(window, axis=0)
+        moving = sums[width:] - sums[:-width]
+        meat += moving.T @ moving
+        history = window[window.shape[0] - (width - 1) :] if width > 1 else history
+    return _sandwich(meat / width, solved, splits), thetas, width, rows
+
+
+def _separated_blocks(blocks: Iterable[np.ndarray], breaks: Sequence[int], gap: int, size: int) -> Iterator[np.ndarray]:
+    """The score blocks with ``gap`` zero rows before each row of ``breaks``: :func:`_separated` in blocks."""
+    pending = list(breaks)
+    done = 0                                             # rows of the record before the block
+    for block in blocks:
+        at = 0
+        while pending and pending[0] < done + block.shape[0]:
+            cut = pending.pop(0) - done
+            if cut > at:
+                yield block[at:cut]
+            if gap:
+                yield np.zeros((gap, size))
+            at = cut
+        if at < block.shape[0]:
+            yield block[at:]
+        done += block.shape[0]
+
+
+def _with_zero_tail(blocks: Iterable[np.ndarray], rows: int, size: int) -> Iterator[np.ndarray]:
+    """The blocks, then ``rows`` zero rows (the moving sums run ``width - 1`` rows past the record)."""
+    yield from blocks
+    if rows:
+        yield np.zeros((rows, size))
 
 
 def _observer_parts(
@@ -215,19 +314,27 @@ def matrix_directions(
 
 
 def matrix_covariance(
-    phis: Sequence[np.ndarray], targets: np.ndarray, indices: Sequence[int], C: np.ndarray, D: np.ndarray,
-    through: np.ndarray, D_y: np.ndarray | None = None, breaks: Sequence[int] = (),
+    problems: tuple[Sequence[np.ndarray], np.ndarray] | Callable[[], Iterable[tuple[list[np.ndarray], np.ndarray]]],
+    indices: Sequence[int], C: np.ndarray, D: np.ndarray, through: np.ndarray, D_y: np.ndarray | None = None,
+    breaks: Sequence[int] = (),
 ) -> tuple[np.ndarray, dict[str, object]]:
     """``cov_factor`` of a model from its least-squares problems, and the record for its ``info``.
 
-    ``D_y``: the model's output injection, where the Jacobian is taken; None takes the
-    least-squares solution's (the model is that estimate). ``breaks``: the rows where
-    the record's segments start (:func:`sandwich_factor`). Raises :class:`DataError`
-    when a problem is rank deficient.
+    ``problems``: every output's regressors and the targets, ``(phis, targets)`` as
+    :func:`sandwich_factor` takes them, or a function that returns a fresh iterator of
+    their row blocks (:func:`streamed_sandwich_factor`, for long records). ``D_y``: the
+    model's output injection, where the Jacobian is taken; None takes the least-squares
+    solution's (the model is that estimate). ``breaks``: the rows where the record's
+    segments start (:func:`sandwich_factor`). Raises :class:`DataError` when a problem
+    is rank deficient.
     """
-    factor, thetas, width = sandwich_factor(phis, targets, breaks)
+    if callable(problems):
+        factor, thetas, width, rows = streamed_sandwich_factor(problems, breaks)
+    else:
+        factor, thetas, width = sandwich_factor(*problems, breaks)
+        rows = problems[1].shape[0]
     if D_y is None:
         D_y = _observer_parts(indices, C.shape[0], D.shape[1], through, np.concatenate(thetas)[None])[0][0]
-    record = {"method": "least squares, Newey-West", "kernel_width": width, "rows": targets.shape[0],
+    record = {"method": "least squares, Newey-West", "kernel_width": width, "rows": rows,
               "parameters": factor.shape[1]}
     return matrix_directions(indices, C, D, D_y, through, factor).T, record

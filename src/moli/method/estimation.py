@@ -11,7 +11,7 @@ from __future__ import annotations
 import functools
 import warnings
 from itertools import accumulate
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import numpy as np
 import scipy.linalg
@@ -20,13 +20,14 @@ from ..data.iodata import IOData
 from ..errors import DataError, IllConditionedWarning, OptionError
 from .covariance import matrix_covariance
 from .filters import check_alpha, divisors
+from .row_blocks import WHOLE_ROWS, fold, lagged_blocks
 from ..models.statespace import StateSpaceModel
-from .rows import check_regression_rows, check_sample_count, regression_rows, row_breaks
+from .rows import check_regression_rows, check_sample_count, regression_rows, row_breaks, row_count
 from .structure import Indices, check_indices
 
 __all__ = [
     "filtered_regressors", "segment_filtered", "output_regressors", "solve_batch", "realize", "fit_batch",
-    "check_sample_count", "estimate",
+    "check_sample_count", "estimate", "regressor_blocks",
 ]
 
 # Condition numbers (of the column-scaled regressor) above this are reported:
@@ -90,6 +91,56 @@ def output_regressors(
             parts.append(rows[:, p:])
         phis.append(np.concatenate(parts, axis=1))
     return phis
+
+
+def regressor_blocks(
+    z: np.ndarray, indices: Indices, alphas: Sequence[np.ndarray], through: np.ndarray | None = None,
+    starts: Sequence[int] = (0,),
+) -> Iterator[tuple[list[np.ndarray], np.ndarray]]:
+    """:func:`output_regressors` and the targets ``y`` in row blocks (bounded memory).
+
+    Yields each block's regressors of every output, shapes (rows_b, k_j), and its
+    targets, shape (rows_b, p); concatenated, the blocks are :func:`output_regressors`
+    and the targets at the :func:`regression_rows`. Each segment (``starts``) is filtered
+    from rest and gives its rows from ``max(indices)`` samples on; no block spans two.
+    """
+    p = len(indices)
+    skip = max(indices)
+    signals = np.ascontiguousarray(z.T)
+    bounds = tuple(zip(starts, (*starts[1:], z.shape[0])))
+    streams = [lagged_blocks(signals, np.asarray(a, float), skip, bounds) for a in alphas]
+    for parts in zip(*streams):
+        k0, k1 = parts[0][:2]
+        current = z[k0:k1]
+        phis = []
+        for j, (_, _, lagged) in enumerate(parts):
+            columns = [lagged.transpose(2, 0, 1).reshape(k1 - k0, -1), current[:, :j]]
+            if through is not None and through[j]:
+                columns.append(current[:, p:])
+            phis.append(np.concatenate(columns, axis=1))
+        yield phis, current[:, :p]
+
+
+def _streamed_fit(
+    z: np.ndarray, indices: Indices, alphas: Sequence[np.ndarray], starts: Sequence[int] = (0,)
+) -> tuple[list[np.ndarray], float]:
+    """Each output's least-squares parameters from the factor of ``[phi_j | y_j]`` built in row blocks.
+
+    ``|Phi theta - y| = |R11 theta - r12|`` up to a constant and ``R11`` has the column
+    norms of ``Phi``, so :func:`solve_batch` on the small triangular problem gives the
+    whole-record solution and condition estimate.
+    """
+    factors: list[np.ndarray | None] = [None] * len(indices)
+    for phis, targets in regressor_blocks(z, indices, alphas, None, starts):
+        for j, phi in enumerate(phis):
+            factors[j] = fold(factors[j], np.concatenate([phi, targets[:, j : j + 1]], axis=1).T)
+    thetas, worst = [], 1.0
+    for r in factors:
+        k = r.shape[1] - 1
+        theta, cond = solve_batch(r[None, :k, :k], r[None, :k, k])
+        thetas.append(theta)
+        worst = max(worst, float(cond[0]))
+    return thetas, worst
 
 
 # Rows per block of the tall-skinny QR: blocks stay in cache, so the cost per
@@ -322,7 +373,12 @@ def estimate(
     check_regression_rows(data.bounds, idx, data.m)
     z = np.concatenate([data.y, data.u], axis=1)
     starts = data.segment_starts
-    A, B, C, cond = fit_batch(z, idx, [alphas], starts)
+    if row_count(data.bounds, max(idx)) <= WHOLE_ROWS:
+        A, B, C, cond = fit_batch(z, idx, [alphas], starts)
+    else:                           # a long record: in row blocks, in bounded memory
+        thetas, worst = _streamed_fit(z, idx, alphas, starts)
+        A, B, C = realize(thetas, [alphas], idx, data.m)
+        cond = np.array([worst])
     if cond[0] > COND_LIMIT:
         warnings.warn(
             f"least-squares problem for list {list(idx)} is badly conditioned "
@@ -348,9 +404,14 @@ def _attach_covariance(
     """Give ``model`` the covariance of its matrices, or record in its ``info`` why it has none."""
     p = len(indices)
     skip = max(indices)
+    through = np.zeros(p, bool)
+    bounds = tuple(zip(starts, (*starts[1:], z.shape[0])))
     try:
+        if row_count(bounds, skip) <= WHOLE_ROWS:
+            problems = (output_regressors(z, indices, alphas, None, starts), regression_rows(z, skip, starts)[:, :p])
+        else:                       # a long record: its problems in row blocks, in bounded memory
+            problems = lambda: regressor_blocks(z, indices, alphas, through, starts)  # noqa: E731
         model.cov_factor, model.info["covariance"] = matrix_covariance(
-            output_regressors(z, indices, alphas, None, starts), regression_rows(z, skip, starts)[:, :p],
-            indices, model.C, model.D, np.zeros(p, bool), breaks=row_breaks(starts, z.shape[0], skip))
+            problems, indices, model.C, model.D, through, breaks=row_breaks(starts, z.shape[0], skip))
     except DataError as exc:
         model.info["covariance"] = {"method": "none", "reason": str(exc)}

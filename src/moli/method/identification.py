@@ -17,6 +17,7 @@ from ..validation.comparison import compare, same_period
 from ..validation.delays import first_significant_lags
 from ..validation.feedback import feedback_check, usable_lags
 from .estimation import check_sample_count
+from .long_records import reestimate, search_window
 from .records import long_segments, shifted_inputs
 from .noise_model import estimate_noise_model
 from .options import IdentifyOptions
@@ -105,8 +106,9 @@ class IdentificationResult:
         lines = [
             f"moli identification: {self.estimation.p} outputs, {self.estimation.m} inputs, "
             f"Ts = {self.estimation.Ts:g}",
-            f"estimation: {self.estimation.N} samples{_in_segments(self.estimation)}; validation: "
-            f"{self.validation.N} samples{_in_segments(self.validation)} ({self.validation_source})",
+            f"estimation: {self.estimation.N} samples{_in_segments(self.estimation)}" + (
+                f" (searched on the first {searched})" if (searched := self.model.info.get("search_samples")) else "")
+            + f"; validation: {self.validation.N} samples{_in_segments(self.validation)} ({self.validation_source})",
             f"VAF: validation, simulation from {self.options.x0} initial state, percent"
             + "".join(f"; y{i + 1} = {nm}" for i, nm in enumerate(names) if nm != f"y{i + 1}"),
             f"options: tuning {opts.tuning}, s = {opts.s:g}, feedthrough {opts.feedthrough}, "
@@ -230,8 +232,10 @@ def identify(
     grid = default_omega(estimation.Ts, opts.filter_grid) if opts.omega is None else np.array(opts.omega)
     radius = opts.max_radius
     if radius == "auto":
-        radius = float(np.exp(-AUTO_RADIUS_SPAN / longest_segment(estimation).N))
-    delays = _input_delays(opts.delays, estimation)
+        radius = float(np.exp(-AUTO_RADIUS_SPAN / longest_segment(search_window(estimation, opts.search_samples)).N))
+    # "auto" delays come from the search window of a long record (docs/method.md §15)
+    delays = _input_delays(opts.delays, search_window(estimation, opts.search_samples)
+                           if opts.delays == "auto" else estimation)
     check_sample_count(estimation.N - max(delays), (1,) * p, estimation.m, opts.feedthrough is not False)
     screen(estimation, nmax, stacklevel=2)
     start = time.perf_counter()
@@ -240,8 +244,9 @@ def identify(
     # the path's models are fitted and scored on the shifted inputs, delay-free; the
     # delays are attached once the path is done (the results are the same either way)
     fitted, scored = shifted_inputs(estimation, delays), shifted_inputs(validation, delays)
+    searched = search_window(fitted, opts.search_samples)   # fitted itself unless the record is long
     search = StructureSearch(
-        fitted, scored, grid, opts.tuning, opts.iterations, opts.s, opts.seed, opts.x0,
+        searched, scored, grid, opts.tuning, opts.iterations, opts.s, opts.seed, opts.x0,
         opts.criterion_x0, opts.feedthrough, radius, opts.trend_degree, opts.output_filters,
         opts.regularization,
     )
@@ -266,12 +271,13 @@ def identify(
 
     def refined(step: PathStep) -> PathStep:
         started = time.perf_counter()
-        result = refine_model(step.model, fitted, iterations=opts.refine_iterations,
+        result = refine_model(step.model, searched, iterations=opts.refine_iterations,
                               ridge=opts.refine_ridge, max_radius=bound)
         vaf = compare(result.model, scored, opts.x0).vaf
         return replace(step, model=result.model, vaf=vaf,
                        seconds=step.seconds + time.perf_counter() - started)
 
+    unrefined = list(path)
     if opts.refine == "path" and not interrupted:
         path[:] = [refined(st) for st in path]
     selected = _fixed_order(path, opts.order, interrupted)
@@ -279,16 +285,22 @@ def identify(
         selected = select_order_paired(path, scored, opts.x0)
     elif selected is None:
         selected = select_order(path, opts.order_tolerance)
+    if searched is not fitted:      # docs/method.md §15: the selected list on the whole record
+        path[selected] = reestimate(unrefined[selected], fitted, scored, opts.s, opts.feedthrough, opts.x0,
+                                    opts.regularization)
+        path[selected].model.info["search_samples"] = searched.N
+        if opts.refine == "path":
+            path[selected] = refined(path[selected])
     if opts.refine == "selected":
         path[selected] = refined(path[selected])
     elif opts.refine == "guarded":
         candidate = refined(path[selected])
         if candidate.mean_vaf > path[selected].mean_vaf:
             path[selected] = candidate
-    # covariance and noise model of the delay-free model, on the shifted record it was fitted on
+    # covariance (whole record) and noise model (search window) of the delay-free model, on the shifted record
     path[selected] = replace(path[selected], model=_with_covariance(path[selected].model, fitted))
     if opts.noise_model:
-        path[selected] = replace(path[selected], model=_with_noise_model(path[selected].model, fitted))
+        path[selected] = replace(path[selected], model=_with_noise_model(path[selected].model, searched))
     if any(delays):
         for step in path:
             step.model = step.model.with_input_delays(delays)

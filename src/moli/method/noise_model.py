@@ -27,6 +27,7 @@ from ..models.simulation import free_response, simulate_batch
 from ..models.statespace import StateSpaceModel
 from ..validation.prediction import deviations, predicted_deviations
 from ..validation.whitening import fit_ar
+from .row_blocks import column_norms, tall_factor
 
 __all__ = ["estimate_noise_model"]
 
@@ -70,16 +71,21 @@ def _gain_regression(F: np.ndarray, C: np.ndarray, target: np.ndarray, eps: np.n
     except np.linalg.LinAlgError:
         pass  # innovations of rank < p (a noise-free output): unweighted rows
     unit = np.eye(n * p).reshape(n * p, n, p)             # model (i, j) has B = e_i e_j^T
-    driven = simulate_batch(np.broadcast_to(F, (n * p, n, n)), unit,
-                            np.broadcast_to(C, (n * p, p, n)), eps)   # (n p, N, p)
-    design = np.concatenate([driven.transpose(1, 2, 0), free_response(F, C, N)], axis=2)
-    design = np.concatenate([design.reshape(N * p, -1), target.reshape(-1, 1)], axis=1)
-    norms = np.linalg.norm(design, axis=0)
+    # [columns | target] filled in place: the record-long matrix is held once, stored
+    # column by column (the column norms then sum each contiguous column)
+    design = np.empty((N * p, n * p + n + 1), order="F")
+    rows = design.reshape(N, p, -1)                # a view: sample, output, column
+    rows[:, :, : n * p] = simulate_batch(np.broadcast_to(F, (n * p, n, n)), unit,
+                                         np.broadcast_to(C, (n * p, p, n)), eps).transpose(1, 2, 0)
+    rows[:, :, n * p : n * p + n] = free_response(F, C, N)
+    rows[:, :, -1] = target
+    norms = column_norms(design)
     norms[norms == 0.0] = 1.0
+    design /= norms
     # only the triangular factor of [columns | target]: the small system it leaves has
     # the least-squares solution (lstsq: rank deficiency is possible, e.g. a state that
     # no innovation reaches)
-    R = np.linalg.qr(design / norms, mode="r")
+    R = tall_factor(design)
     solution = np.linalg.lstsq(R[:-1, :-1], R[:-1, -1], rcond=None)[0]
     return (solution * norms[-1] / norms[:-1])[: n * p].reshape(n, p)
 

@@ -30,6 +30,9 @@ REFINE_CHOICES = ("none", "selected", "path", "guarded")
 EVAPORATOR_CHOICES = {"order_tolerance": 1.0, "filter_grid": "paper", "refine": "none"}
 ORDER_RULES = ("tolerance", "paired")
 PRESETS = ("default", "improved", "bounded", "paper")
+# Shortest search window: a few hundred samples still rank the filters and lists of
+# small plants; below that a window says too little about the record.
+MIN_SEARCH_SAMPLES = 500
 
 
 def _fail(name: str, accepted: str, value: object) -> OptionError:
@@ -184,6 +187,12 @@ class IdentifyOptions:
         estimated on the shifted inputs and carries them (``model.input_delays``).
         "auto": per input, the smallest over the outputs of
         :func:`moli.estimate_delays` on the estimation record (docs/diagnostics.md §3).
+    search_samples : int or None, default 32768
+        On a longer estimation record, the filter tuning, the greedy path, the
+        refinement and the noise model run on its first ``search_samples`` samples, and
+        the selected list is re-estimated on the whole record (docs/method.md §15);
+        None searches the whole record however long. At least
+        :data:`MIN_SEARCH_SAMPLES`.
 
     Examples
     --------
@@ -219,6 +228,7 @@ class IdentifyOptions:
     noise_model: bool = True
     regularization: str = "none"
     delays: int | tuple[int, ...] | str = 0
+    search_samples: int | None = 2**15
 
     def __post_init__(self) -> None:
         radius = self.max_radius
@@ -255,6 +265,8 @@ class IdentifyOptions:
             "noise_model": _flag("noise_model", self.noise_model),
             "regularization": _choice("regularization", self.regularization, REGULARIZATIONS),
             "delays": _delays(self.delays),
+            "search_samples": None if self.search_samples is None else _integer(
+                "search_samples", self.search_samples, MIN_SEARCH_SAMPLES),
         }
         if checked["order"] is not None and checked["nmax"] is not None and checked["order"] > checked["nmax"]:
             raise _fail("order", f"at most nmax = {checked['nmax']} (the end of the path)", self.order)

@@ -23,6 +23,7 @@ accepted only if it lowers ``V`` *and* keeps every pole inside the circle of rad
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Iterator
 
 import numpy as np
 import scipy.linalg
@@ -31,6 +32,7 @@ from ..data.iodata import IOData
 from ..errors import DataError, OptionError
 from .estimation import _filter_companion
 from .filters import divisors
+from .row_blocks import column_norms, tall_factor
 from ..models.delays import shift_inputs
 from ..models.statespace import StateSpaceModel
 from ..models.simulation import free_response, simulate_batch
@@ -126,10 +128,15 @@ class RefineResult:
     rejected_unstable: int
 
 
-def _sensitivities(A: np.ndarray, C: np.ndarray, signals: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Responses ``C (qI - A)^-1 e_a v`` for every state ``a`` and signal ``v``.
+def _sensitivities(
+    A: np.ndarray, C: np.ndarray, signals: np.ndarray
+) -> tuple[np.ndarray, Iterator[tuple[int, np.ndarray]]]:
+    """Responses ``C (qI - A)^-1 e_a v`` for every state ``a`` and signal ``v``, one signal at a time.
 
-    Returns ``S`` of shape (N, p, n, k) and the free responses ``C A^t e_a``, (N, p, n).
+    Returns the free responses ``C A^t e_a``, (N, p, n), and an iterator of ``(c,
+    S_c)``, ``S_c[t, :, a]`` the response to signal ``c`` injected into state ``a``
+    (each array valid until the next): the responses to all ``k`` signals at once
+    would hold ``N p n k`` values, many times the record's size.
     """
     import scipy.fft  # slow to import: only when refining
 
@@ -140,10 +147,17 @@ def _sensitivities(A: np.ndarray, C: np.ndarray, signals: np.ndarray) -> tuple[n
     size = scipy.fft.next_fast_len(2 * N - 1, real=True)
     H = scipy.fft.rfft(free, size, axis=0)            # (F, p, n)
     V = scipy.fft.rfft(signals, size, axis=0)         # (F, k)
-    S = scipy.fft.irfft(H[:, :, :, None] * V[:, None, None, :], size, axis=0)[: N - 1]
-    out = np.zeros((N,) + S.shape[1:])
-    out[1:] = S                                        # one-step delay of (qI - A)^-1
-    return out, free
+
+    def responses() -> Iterator[tuple[int, np.ndarray]]:
+        # stored with a stride between states, as one signal's slice of all of them
+        # at once was: the products below then sum in the same order, to the bit
+        buffer = np.zeros(free.shape + (2,))
+        for c in range(signals.shape[1]):
+            # one-step delay of (qI - A)^-1
+            buffer[1:, :, :, 0] = scipy.fft.irfft(H * V[:, c, None, None], size, axis=0)[: N - 1]
+            yield c, buffer[:, :, :, 0]
+
+    return free, responses()
 
 
 class _Problem:
@@ -214,35 +228,52 @@ class _Problem:
             free[a:b, :, i * self.n : (i + 1) * self.n] = free_response(A, C, b - a)
         return free
 
-    def jacobian(self, theta: np.ndarray, yhat: np.ndarray) -> np.ndarray:
-        """d yhat / d theta, weighted, shape (N p, parameters)."""
+    def jacobian(self, theta: np.ndarray, yhat: np.ndarray, residual: np.ndarray) -> np.ndarray:
+        """``[d yhat / d theta, residual]``, weighted, shape (N p, parameters + 1).
+
+        Built in place, one signal's sensitivities at a time, with the residual as its
+        last column: the record-long matrix is the least-squares problem's, held once.
+        """
         n, p, m = self.n, self.p, self.m
         form, _ = self.unpack(theta)
         A, _, C = form.matrices()
         yx = yhat - self.u @ form.F.T                   # C x: the part the state produces
         signals = np.concatenate([self.u, yx], axis=1)
-        # the sensitivities restart with the state at each segment (its x0 is a parameter of its own)
-        S = np.concatenate([_sensitivities(A, C, signals[a:b])[0] for a, b in self.bounds])
         N = self.y.shape[0]
-        cols = [
-            S[:, :, :, m:].reshape(N, p, n * p),       # D[a, b]: signal yhat_b into state a
-            S[:, :, :, :m].reshape(N, p, n * m),       # B[a, b]: input u_b into state a
-        ]
         H = np.linalg.inv(np.eye(p) - form.G)
-        g_cols = []
-        for i, j in zip(*self.lower):
-            direct = np.outer(yx[:, j], H[:, i])                           # dC x = H e_i (C x)_j
-            through = np.einsum("tpa,a->tp", S[:, :, :, m + j], form.D @ H[:, i])
-            g_cols.append(direct + through)
-        if g_cols:
-            cols.append(np.stack(g_cols, axis=2))
+        pairs = list(zip(*self.lower))
+        # columns: D (n p), B (n m), G's lower part, F (p m) with feedthrough, x0 (n per segment)
+        at_g = n * p + n * m
+        at_f = at_g + len(pairs)
+        count = at_f + (p * m if self.feedthrough else 0) + (self.x0_size if self.fit_x0 else 0)
+        augmented = np.empty((N, p, count + 1))
+        if self.fit_x0:
+            augmented[:, :, count - self.x0_size : count] = 0.0   # a segment's x0 moves that segment alone
+        # the sensitivities restart with the state at each segment (its x0 is a parameter of its own)
+        for segment, (a, b) in enumerate(self.bounds):
+            free, responses = _sensitivities(A, C, signals[a:b])
+            rows = augmented[a:b]
+            for c, S_c in responses:
+                if c < m:                               # B[a, c]: input u_c into state a
+                    rows[:, :, n * p + c : at_g : m] = S_c
+                    continue
+                j = c - m
+                rows[:, :, j : n * p : p] = S_c         # D[a, j]: signal yhat_j into state a
+                for q, (i, jj) in enumerate(pairs):
+                    if jj == j:                         # dC x = H e_i (C x)_j, and through D
+                        direct = np.outer(yx[a:b, j], H[:, i])
+                        rows[:, :, at_g + q] = direct + np.einsum("tpa,a->tp", S_c, form.D @ H[:, i])
+            if self.fit_x0:
+                at_x0 = count - self.x0_size + segment * n
+                rows[:, :, at_x0 : at_x0 + n] = free
         if self.feedthrough:                       # F[i, j]: u_j straight to y_i
             eye = np.eye(p)
-            cols.append((eye[None, :, :, None] * self.u[:, None, None, :]).reshape(N, p, p * m))
-        if self.fit_x0:
-            cols.append(self._free(A, C))
-        jac = np.concatenate(cols, axis=2) * self.weights[None, :, None]
-        return jac.reshape(N * p, -1)
+            for i in range(p):                     # one output at a time: N p m values, not N p p m
+                augmented[:, i, at_f : at_f + p * m] = (eye[i, None, :, None] * self.u[:, None, :]).reshape(N, p * m)
+        augmented[:, :, :count] *= self.weights[None, :, None]
+        augmented = augmented.reshape(N * p, count + 1)
+        augmented[:, count] = residual
+        return augmented
 
 
 def refine(
@@ -329,8 +360,9 @@ def refine(
     damping = 1e-3
     if stable:
         while accepted < iterations:
-            jac = problem.jacobian(theta, yhat)
-            norms = np.linalg.norm(jac, axis=0)
+            augmented = problem.jacobian(theta, yhat, residual)
+            jac = augmented[:, :-1]
+            norms = column_norms(jac)
             norms[norms == 0] = 1.0
             if scale is None:
                 scale = norms.copy()
@@ -341,7 +373,8 @@ def refine(
             # parameters' size instead of the record's
             if not (np.all(np.isfinite(jac)) and np.all(np.isfinite(residual))):
                 break                           # nothing sound to step along: keep what we have
-            reduced = np.linalg.qr(np.column_stack([jac, residual]), mode="r")
+            reduced = tall_factor(augmented)
+            del jac, augmented
             improved = False
             while damping < 1e8:
                 # solved for the step in units of each column's norm: the parameters'

@@ -9,7 +9,7 @@ nested F-test of the "auto" feedthrough.
 from __future__ import annotations
 
 import functools
-from typing import Sequence
+from typing import Iterator, Sequence
 
 import numpy as np
 import scipy.linalg
@@ -20,9 +20,10 @@ from ..errors import OptionError
 from .estimation import solve_batch
 from .regularization import REGULARIZATIONS, ridge_gcv
 from .filters import _needs_real, filter_rows
+from .row_blocks import WHOLE_ROWS, lagged_blocks, streamed_factor
 from .structure import Indices
 
-__all__ = ["RegressionCache", "combine_factors"]
+__all__ = ["RegressionCache"]
 
 FEEDTHROUGH_CHOICES = (False, True, "auto")
 # Significance level of the "auto" feedthrough test. Strict, because the equation
@@ -32,6 +33,9 @@ FEEDTHROUGH_LEVEL = 1e-3
 # columns, too few for LAPACK's blocked dgeqrf (which then applies one reflector at a
 # time); dgeqrt in blocks of 8 took 17-44 % less time on 433 x 30 to 645 x 90
 QR_BLOCK = 8
+# Filters factored whole at a time hold at most this many bytes of matrices: sharing
+# one allocation saves time on short records, and the bound keeps it off long ones.
+BATCH_BYTES = 2**25
 
 
 class RegressionCache:
@@ -60,8 +64,8 @@ class RegressionCache:
         (otherwise that output's feedthrough is exactly zero).
     starts : sequence of int, default (0,)
         First sample of each segment of ``z``: each segment is filtered from a zero
-        state and factored alone, and the segments' factors are combined
-        (:func:`combine_factors`), so no row spans a boundary.
+        state and gives its own rows, all folded into one factor in row blocks
+        (:mod:`moli.method.row_blocks`), so no row spans a boundary.
     regularization : {"none", "gcv"}
         Plain least squares, or ridge with its weight chosen per problem by
         generalized cross-validation (:func:`moli.method.regularization.ridge_gcv`).
@@ -78,6 +82,7 @@ class RegressionCache:
         self.regularization = regularization
         self.z = z
         self.starts = tuple(starts)
+        self._signals = np.ascontiguousarray(z.T)
         self.p = p
         self.feedthrough = feedthrough
         # columns appended to xi: the outputs, and the inputs when they feed through
@@ -115,7 +120,13 @@ class RegressionCache:
         return [f[nbar] for f in found], [[f[l] for l in indices] for f in found]
 
     def factor(self, alphas: Sequence[np.ndarray]) -> list[np.ndarray]:
-        """Triangular factors of ``[xi, y]`` for each filter polynomial (batched, cached)."""
+        """Triangular factors of ``[xi, y]`` for each filter polynomial (batched, cached).
+
+        A record of one segment with at most :data:`WHOLE_ROWS` rows is factored whole,
+        several filters at a time (at most :data:`BATCH_BYTES` of matrices); longer
+        records and records of several segments are streamed through the factor in row
+        blocks (:mod:`moli.method.row_blocks`), one filter at a time.
+        """
         keys = [a.tobytes() for a in alphas]
         todo = {k: a for k, a in zip(keys, alphas) if k not in self._factors}
         if todo:
@@ -124,15 +135,19 @@ class RegressionCache:
                 by_degree.setdefault(a.size - 1, []).append((k, a))
             bounds = tuple(zip(self.starts, (*self.starts[1:], self.z.shape[0])))
             for nbar, items in by_degree.items():
-                # each segment from a zero filter state, folded into the factors of the
-                # segments before it; those too short to give a row add nothing
-                combined: list[np.ndarray] = []
-                for a, b in bounds:
-                    if b - a > nbar:
-                        factors = _record_factors(self.z[a:b], [alpha for _, alpha in items], self.extra)
-                        combined = [combine_factors([r, f]) for r, f in zip(combined, factors)] or factors
-                for (k, _), factor in zip(items, combined):
-                    self._factors[k] = factor
+                cols = self.z.shape[1] * nbar + self.extra
+                if len(bounds) == 1 and self.z.shape[0] - nbar <= WHOLE_ROWS:
+                    rows = self.z.shape[0] - nbar
+                    batch = max(1, BATCH_BYTES // (8 * rows * cols))
+                    for first in range(0, len(items), batch):
+                        chunk = items[first : first + batch]
+                        factors = _record_factors(self.z, [a for _, a in chunk], self.extra)
+                        self._factors.update((k, f) for (k, _), f in zip(chunk, factors))
+                else:
+                    # each segment filtered from a zero state, its rows folded into one
+                    # factor block by block: no row spans a boundary, memory is a block
+                    for k, a in items:
+                        self._factors[k] = _streamed_record_factor(self._signals, a, self.extra, bounds)
                 self.factorizations += len(items)
         return [self._factors[k] for k in keys]
 
@@ -272,16 +287,27 @@ def _record_factors(z: np.ndarray, alphas: Sequence[np.ndarray], extra: int) -> 
     return factors
 
 
-def combine_factors(factors: Sequence[np.ndarray]) -> np.ndarray:
-    """One triangular factor of the rows of several records, from each record's factor.
+def _streamed_record_factor(
+    signals: np.ndarray, a: np.ndarray, extra: int, bounds: Sequence[tuple[int, int]]
+) -> np.ndarray:
+    """Triangular factor of ``[xi, y]`` of one filter polynomial over the segments ``bounds``, in row blocks.
 
-    ``R^T R`` of ``[X_1; X_2; ...]`` is ``sum R_i^T R_i``, which is the ``R^T R`` of the
-    stacked ``[R_1; R_2; ...]``: their QR factor serves every least-squares problem
-    of the stacked rows (docs/method.md §3, "Segments"). One factor is returned as is.
+    ``signals`` is ``z`` transposed (channels, samples). Each segment is filtered from a
+    zero state and gives its samples from ``nbar`` on (:func:`moli.method.row_blocks.lagged_blocks`);
+    the rows of all segments are folded into one factor (docs/method.md §3, "Segments"; §15).
     """
-    if len(factors) == 1:
-        return factors[0]
-    return np.linalg.qr(np.concatenate(factors), mode="r")
+    c = signals.shape[0]
+    nbar = a.size - 1
+    cols = c * nbar + extra
+
+    def blocks() -> Iterator[np.ndarray]:
+        for k0, k1, lagged in lagged_blocks(signals, a, nbar, bounds):
+            block = np.empty((cols, k1 - k0))
+            block[: c * nbar].reshape(c, nbar, k1 - k0)[:] = lagged
+            block[c * nbar :] = signals[:extra, k0:k1]
+            yield block
+
+    return streamed_factor(blocks())
 
 
 @functools.lru_cache(maxsize=None)

@@ -15,7 +15,7 @@ import numpy as np
 from ..errors import DataError
 from .structure import Indices, parameter_counts
 
-__all__ = ["regression_rows", "row_breaks", "check_sample_count", "check_regression_rows"]
+__all__ = ["regression_rows", "row_count", "row_breaks", "check_sample_count", "check_regression_rows"]
 
 
 def regression_rows(z: np.ndarray, skip: int, starts: Sequence[int] = (0,)) -> np.ndarray:
@@ -28,6 +28,11 @@ def regression_rows(z: np.ndarray, skip: int, starts: Sequence[int] = (0,)) -> n
         return z[skip:]
     stops = (*starts[1:], z.shape[0])
     return np.concatenate([z[a + skip : b] for a, b in zip(starts, stops) if b - a > skip] or [z[:0]])
+
+
+def row_count(bounds: Sequence[tuple[int, int]], skip: int) -> int:
+    """How many :func:`regression_rows` a record of segments ``bounds`` has: each one's samples from ``skip`` on."""
+    return sum(max(b - a - skip, 0) for a, b in bounds)
 
 
 def row_breaks(starts: Sequence[int], N: int, skip: int) -> tuple[int, ...]:
@@ -64,7 +69,7 @@ def check_regression_rows(
         check_sample_count(bounds[0][1] - bounds[0][0], indices, m, feedthrough)
         return
     skip = max(indices)
-    rows = sum(max(b - a - skip, 0) for a, b in bounds)
+    rows = row_count(bounds, skip)
     need = int(parameter_counts(indices, m).max()) + (m if feedthrough else 0) + 1
     if rows < need:
         raise DataError(

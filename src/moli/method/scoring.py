@@ -32,6 +32,10 @@ MAX_TREND_DEGREE = 5
 # larger batches leave the processor's cache (with a 16 MB limit, glassfurnace's six
 # lists of 18 models, 3 MB, were scored 11-21 % slower together than one by one).
 JOINT_BATCH_VALUES = 2**17
+# The models of one criterion call are simulated at most this many values at a time
+# (16 MB): a long record's batch of candidates would otherwise hold models x N x p
+# simulated values, and the error's copy beside them.
+CRITERION_BATCH_VALUES = 2**21
 
 
 def check_trend_degree(degree: object) -> int:
@@ -222,6 +226,14 @@ class FilterScorer:
         caller then applies :meth:`too_slow` to the ones it keeps.
         """
         A, B, C = matrices[:3]
+        # with a fitted initial state each model also simulates its n free responses
+        per_model = self.y.size * (1 + (A.shape[1] if self.x0 == "estimate" else 0))
+        step = max(CRITERION_BATCH_VALUES // per_model, 1)
+        if A.shape[0] > step:
+            return np.concatenate([
+                self.criterion(tuple(M[i : i + step] for M in matrices), radius_rule)
+                for i in range(0, A.shape[0], step)
+            ])
         yhat = self._simulate(A, B, C)
         if len(matrices) == 4:
             yhat = yhat + self.u @ matrices[3].transpose(0, 2, 1)

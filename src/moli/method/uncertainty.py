@@ -16,8 +16,9 @@ from ..errors import DataError
 from ..models.statespace import StateSpaceModel
 from ..validation.prediction import deviations
 from .covariance import matrix_covariance
-from .estimation import output_regressors
-from .rows import check_regression_rows, regression_rows, row_breaks
+from .estimation import output_regressors, regressor_blocks
+from .row_blocks import WHOLE_ROWS
+from .rows import check_regression_rows, regression_rows, row_breaks, row_count
 from .filters import divisors
 from .refinement import ObserverForm, observer_form
 
@@ -95,9 +96,13 @@ def estimate_covariance(model: StateSpaceModel, data: IOData) -> StateSpaceModel
     check_regression_rows(data.bounds, model.indices, model.m, bool(through.any()))
     filters = model.divisors if model.divisors is not None else divisors(model.alpha, model.indices)
     z, starts, skip = np.concatenate([y, u], axis=1), data.segment_starts, max(model.indices)
-    phis = output_regressors(z, model.indices, filters, through, starts)
-    factor, record = matrix_covariance(phis, regression_rows(z, skip, starts)[:, : model.p], model.indices,
-                                       model.C, model.D, through, form.D, row_breaks(starts, z.shape[0], skip))
+    if row_count(data.bounds, skip) <= WHOLE_ROWS:
+        problems = (output_regressors(z, model.indices, filters, through, starts),
+                    regression_rows(z, skip, starts)[:, : model.p])
+    else:                       # a long record: its problems in row blocks, in bounded memory
+        problems = lambda: regressor_blocks(z, model.indices, filters, through, starts)  # noqa: E731
+    factor, record = matrix_covariance(problems, model.indices, model.C, model.D, through, form.D,
+                                       row_breaks(starts, z.shape[0], skip))
     attached = copy.deepcopy(model)
     attached.cov_factor, attached.info["covariance"] = factor, record
     return attached
