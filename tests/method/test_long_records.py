@@ -90,24 +90,6 @@ def test_cache_segments_restart_the_filters():
         np.testing.assert_allclose(got, theta, rtol=1e-8, atol=1e-10)
 
 
-def test_estimate_in_row_blocks_matches_the_whole_record(monkeypatch):
-    data = _record(6000, 5)
-    indices, alpha = (2, 1), filter_polynomial(0.5, 0.8, (2, 1))
-    whole = moli.estimate(data, indices, alpha)
-    for module in (estimation, uncertainty):
-        monkeypatch.setattr(module, "WHOLE_ROWS", 500)
-    streamed = moli.estimate(data, indices, alpha)
-    again = moli.estimate_covariance(whole, data)
-    for M, N in [(whole.A, streamed.A), (whole.B, streamed.B), (whole.C, streamed.C)]:
-        np.testing.assert_allclose(M, N, rtol=1e-10, atol=1e-12)   # same problems, round-off apart
-    cov = whole.cov_factor @ whole.cov_factor.T
-    # the moving sums of the scores are cumulated in other blocks: 1e-9 of the largest entry
-    for other in (streamed, again):
-        np.testing.assert_allclose(other.cov_factor @ other.cov_factor.T, cov, rtol=0,
-                                   atol=1e-9 * np.abs(cov).max())
-    assert streamed.info["covariance"] == whole.info["covariance"]
-
-
 def test_streamed_covariance_refuses_a_rank_deficient_problem():
     rng = np.random.default_rng(6)
     phi = rng.standard_normal((300, 2))
@@ -237,8 +219,9 @@ def test_streamed_covariance_of_segments_takes_no_lag_across_a_boundary():
     assert not np.allclose(joined.T @ joined, cov, rtol=1e-6)      # the breaks do matter
 
 
-def test_estimate_of_a_long_record_of_segments_stacks_each_segments_rows(monkeypatch):
-    data = moli.merge([_record(2500, 15), _record(1800, 16)])
+@pytest.mark.parametrize("segments", [(6000,), (2500, 1800)], ids=["one segment", "two segments"])
+def test_estimate_in_row_blocks_matches_the_whole_record(monkeypatch, segments):
+    data = moli.merge([_record(n, 5 + i) for i, n in enumerate(segments)])
     indices, alpha = (2, 1), filter_polynomial(0.5, 0.8, (2, 1))
     whole = moli.estimate(data, indices, alpha)          # every segment's rows, stacked
     for module in (estimation, uncertainty):
@@ -252,7 +235,7 @@ def test_estimate_of_a_long_record_of_segments_stacks_each_segments_rows(monkeyp
         np.testing.assert_allclose(other.cov_factor @ other.cov_factor.T, cov, rtol=0,
                                    atol=1e-9 * np.abs(cov).max())
         assert other.info["covariance"] == whole.info["covariance"]
-    assert whole.info["covariance"]["rows"] == (2500 - 2) + (1800 - 2)
+    assert whole.info["covariance"]["rows"] == sum(n - 2 for n in segments)   # n̄ = 2 per segment
 
 
 def test_long_record_search_of_segments_keeps_the_boundaries_and_reestimates_every_segment():
