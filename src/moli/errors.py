@@ -1,7 +1,9 @@
 """Exceptions and warnings raised by moli.
 
 Every exception subclasses :class:`ValueError`, so callers may catch either the
-specific class or the builtin one.
+specific class or the builtin one. An argument of the wrong type (text where a number
+goes, a number where a list of names goes) raises the subclass given by
+:func:`wrong_type`, which is also a :class:`TypeError`.
 """
 
 from __future__ import annotations
@@ -10,7 +12,7 @@ from typing import Any, Sequence
 
 __all__ = [
     "MoliError", "DataError", "StructureError", "FilterError", "OptionError", "ModelFileError",
-    "ControlDesignError",
+    "ControlDesignError", "wrong_type",
     "UnstableModelWarning", "IllConditionedWarning", "DataQualityWarning", "OrderBoundWarning",
     "ClosedLoopWarning", "IrregularSamplingWarning",
 ]
@@ -42,6 +44,30 @@ class ModelFileError(MoliError):
 
 class ControlDesignError(MoliError):
     """A controller cannot be designed or built with the given model or settings."""
+
+
+def _type_variant(error: type[MoliError]) -> type[MoliError]:
+    variant = type(f"_{error.__name__}OfType", (error, TypeError), {
+        "__module__": __name__,
+        "__doc__": f"{error.__name__} for an argument of the wrong type (also a TypeError).",
+    })
+    globals()[variant.__name__] = variant   # found by name, so it pickles across processes
+    return variant
+
+
+_TYPE_VARIANTS = {e: _type_variant(e) for e in (
+    MoliError, DataError, StructureError, FilterError, OptionError, ModelFileError, ControlDesignError)}
+
+
+def wrong_type(error: type[MoliError]) -> type[MoliError]:
+    """The subclass of ``error`` raised for an argument of the wrong type: also a TypeError.
+
+    Examples
+    --------
+    >>> issubclass(wrong_type(DataError), (DataError, TypeError))
+    True
+    """
+    return _TYPE_VARIANTS.get(error, error)
 
 
 class UnstableModelWarning(UserWarning):

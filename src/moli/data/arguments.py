@@ -11,7 +11,7 @@ from numbers import Integral, Real
 
 import numpy as np
 
-from ..errors import DataError, MoliError
+from ..errors import DataError, MoliError, wrong_type
 
 __all__ = ["real_number", "integer", "period", "real_array", "name_list"]
 
@@ -29,7 +29,9 @@ def real_number(name: str, value: object, *, error: type[MoliError] = DataError,
     text is a mistake to report, not to guess at.
     """
     value = _scalar(value)
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, Real) or not np.isfinite(value):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, Real):
+        raise wrong_type(error)(f"{name} must be a finite real number, got {value!r}")
+    if not np.isfinite(value):
         raise error(f"{name} must be a finite real number, got {value!r}")
     number = float(value)
     below = low is not None and (number <= low if low_open else number < low)
@@ -44,7 +46,7 @@ def integer(name: str, value: object, *, error: type[MoliError] = DataError, low
     """``value`` as an int of at least ``low`` (a float such as 3.0 is refused too)."""
     value = _scalar(value)
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, Integral):
-        raise error(f"{name} must be an integer, got {value!r}")
+        raise wrong_type(error)(f"{name} must be an integer, got {value!r}")
     if low is not None and value < low:
         raise error(f"{name} must be an integer of at least {low}, got {value!r}")
     return int(value)
@@ -53,7 +55,9 @@ def integer(name: str, value: object, *, error: type[MoliError] = DataError, low
 def period(value: object, *, error: type[MoliError] = DataError, name: str = "Ts") -> float:
     """A sampling period: a positive finite number."""
     value = _scalar(value)
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, Real) or not (np.isfinite(value) and value > 0):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, Real):
+        raise wrong_type(error)(f"{name} must be a positive finite number, got {value!r}")
+    if not (np.isfinite(value) and value > 0):
         raise error(f"{name} must be a positive finite number, got {value!r}")
     return float(value)
 
@@ -65,7 +69,7 @@ def real_array(name: str, value: object, *, error: type[MoliError] = DataError, 
     ``finite=False`` lets NaN and inf through (the caller decides what they mean).
     """
     if value is None or isinstance(value, (str, bytes)):
-        raise error(f"{name} must be an array of real (numeric) values, got {value!r}")
+        raise wrong_type(error)(f"{name} must be an array of real (numeric) values, got {value!r}")
     try:
         raw = np.asarray(value)
     except ValueError as exc:  # ragged nested lists
@@ -90,7 +94,7 @@ def real_array(name: str, value: object, *, error: type[MoliError] = DataError, 
 def name_list(name: str, value: object, count: int, *, error: type[MoliError] = DataError) -> tuple[str, ...]:
     """``count`` distinct channel names from a list or tuple of strings."""
     if isinstance(value, (str, bytes)) or not isinstance(value, (list, tuple, np.ndarray)):
-        raise error(f"{name} must be a list of {count} names, got {value!r}")
+        raise wrong_type(error)(f"{name} must be a list of {count} names, got {value!r}")
     names = tuple(str(n) for n in value)
     if len(names) != count:
         raise error(f"{name} has {len(names)} names for {count} channels")

@@ -15,7 +15,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from ..errors import OptionError
+from ..errors import OptionError, wrong_type
 from ..validation.comparison import X0_CHOICES
 from .regression import FEEDTHROUGH_CHOICES
 from .regularization import REGULARIZATIONS
@@ -35,14 +35,15 @@ PRESETS = ("default", "improved", "bounded", "paper")
 MIN_SEARCH_SAMPLES = 500
 
 
-def _fail(name: str, accepted: str, value: object) -> OptionError:
-    return OptionError(f"IdentifyOptions.{name} must be {accepted}, got {value!r}")
+def _fail(name: str, accepted: str, value: object, of_type: bool = False) -> OptionError:
+    error = wrong_type(OptionError) if of_type else OptionError
+    return error(f"IdentifyOptions.{name} must be {accepted}, got {value!r}")
 
 
 def _integer(name: str, value: object, low: int, high: int | None = None) -> int:
     accepted = f"an integer >= {low}" if high is None else f"an integer from {low} to {high}"
     if isinstance(value, bool) or not hasattr(value, "__index__"):
-        raise _fail(name, accepted, value)
+        raise _fail(name, accepted, value, of_type=True)
     number = int(value.__index__())  # type: ignore[union-attr]
     if number < low or (high is not None and number > high):
         raise _fail(name, accepted, value)
@@ -51,7 +52,7 @@ def _integer(name: str, value: object, low: int, high: int | None = None) -> int
 
 def _number(name: str, value: object, accepted: str, ok: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) and not hasattr(value, "__float__"):
-        raise _fail(name, accepted, value)
+        raise _fail(name, accepted, value, of_type=True)
     number = float(value)  # type: ignore[arg-type]
     if not (math.isfinite(number) and ok(number)):
         raise _fail(name, accepted, value)
@@ -67,7 +68,7 @@ def _choice(name: str, value: object, choices: tuple[Any, ...]) -> Any:
 
 def _flag(name: str, value: object) -> bool:
     if not isinstance(value, bool):
-        raise _fail(name, "True or False", value)
+        raise _fail(name, "True or False", value, of_type=True)
     return value
 
 
