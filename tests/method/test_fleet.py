@@ -155,12 +155,12 @@ def test_pairs_paths_and_records_mix_and_inputs_are_untouched(tmp_path):
         (lambda: identify_many([moli.example_data(N=50), 3]), DataError, "datasets[1] must be an IOData"),
         (lambda: identify_many({"a": (1, 2)}), DataError, "datasets['a'] must be"),
         (lambda: identify_many(["x/a.csv", "y/a.csv"]), DataError, "both named 'a'"),
-        (lambda: identify_many([], options={"nmax": 3}), OptionError, "options must be an IdentifyOptions"),
-        (lambda: identify_many([], n_jobs=0), OptionError, "n_jobs must be a positive integer"),
-        (lambda: identify_many([], executor=42), OptionError, "executor must be None"),
-        (lambda: identify_many([], executor="nonesuch"), OptionError, "executor:"),
-        (lambda: identify_many([], read_options={"columns": 1}), OptionError, "read_options:"),
-        (lambda: identify_many([], progress="yes"), OptionError, "progress must be"),
+        (lambda: identify_many([moli.example_data(N=50)], options={"nmax": 3}), OptionError, "options must be an IdentifyOptions"),
+        (lambda: identify_many([moli.example_data(N=50)], n_jobs=0), OptionError, "n_jobs must be a positive integer"),
+        (lambda: identify_many([moli.example_data(N=50)], executor=42), OptionError, "executor must be None"),
+        (lambda: identify_many([moli.example_data(N=50)], executor="nonesuch"), OptionError, "executor:"),
+        (lambda: identify_many([moli.example_data(N=50)], read_options={"columns": 1}), OptionError, "read_options:"),
+        (lambda: identify_many([moli.example_data(N=50)], progress="yes"), OptionError, "progress must be"),
     ],
 )
 def test_bad_arguments_are_named_before_any_work(call, error, message):

@@ -248,7 +248,10 @@ class IOData:
         if isinstance(at, float) and not at.is_integer():
             if not 0 < at < 1:
                 raise DataError(f"a fractional split must lie in (0, 1), got {at}")
-            at = int(round(at * self.N))
+            fraction, at = at, int(round(at * self.N))
+            if not 0 < at < self.N:
+                raise DataError(f"a record of {self.N} sample{'s' if self.N != 1 else ''} cannot be split at "
+                                f"the fraction {fraction:g}: one side would be empty")
         at = int(at)
         if not 0 < at < self.N:
             raise DataError(f"split point must lie in 1..{self.N - 1}, got {at}")

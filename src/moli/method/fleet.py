@@ -263,6 +263,8 @@ def _items(datasets: Any) -> list[tuple[str, Item]]:
     else:
         raise DataError("datasets must be a list or a mapping of records (IOData, file paths or "
                         f"(estimation, validation) pairs), got {type(datasets).__name__}")
+    if not named:
+        raise DataError("datasets is empty: give at least one record")
     checked: list[tuple[str, Item]] = []
     seen: dict[str, int] = {}
     for position, (key, item) in enumerate(named):

@@ -204,6 +204,9 @@ def identify(
     if progress is not None and not callable(progress):
         raise OptionError(f"progress must be a callable taking a PathStep, got {type(progress).__name__}")
     if validation is None:
+        if data.N * HOLDOUT_FRACTION < 1:
+            raise DataError(f"data hold {data.N} sample{'s' if data.N != 1 else ''}: too few to hold out "
+                            f"the last {HOLDOUT_FRACTION:.0%} for validation; give a longer record")
         estimation, validation = data.split(1.0 - HOLDOUT_FRACTION)
         source = f"held out: last {HOLDOUT_FRACTION:.0%} of the record"
     else:
