@@ -11,7 +11,7 @@ from ..data.iodata import IOData
 from ..errors import DataError, OptionError
 from .metrics import nrmse_fit, vaf
 from ..models.statespace import StateSpaceModel
-from .prediction import X0_CHOICES, check_horizon, deviations, initial_state, predicted_deviations
+from .prediction import X0_CHOICES, checked_deviations, initial_state, predicted_deviations
 
 __all__ = ["Comparison", "estimate_initial_state", "compare", "same_period"]
 
@@ -111,12 +111,7 @@ def compare(model: StateSpaceModel, data: IOData, x0: str = "zero", horizon: int
     >>> float(compare(m, data).mean_vaf)
     100.0
     """
-    if not isinstance(x0, str) or x0 not in X0_CHOICES:
-        raise OptionError(f"x0 must be one of {X0_CHOICES}, got {x0!r}")
-    if not isinstance(model, StateSpaceModel):
-        raise DataError(f"model must be a StateSpaceModel, got {type(model).__name__}")
-    k = check_horizon(model, horizon)
-    u, y = deviations(model, data)
+    k, u, y = checked_deviations(model, data, x0, horizon)
     if not same_period(data.Ts, model.Ts):
         raise DataError(
             f"the record is sampled every Ts = {data.Ts:g}, the model every Ts = {model.Ts:g}; "

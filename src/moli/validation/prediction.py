@@ -59,6 +59,20 @@ def deviations(model: StateSpaceModel, data: IOData) -> tuple[np.ndarray, np.nda
     return data.u + data.u_offset - model.u_offset, data.y + data.y_offset - model.y_offset
 
 
+def checked_deviations(
+    model: StateSpaceModel, data: IOData, x0: str, horizon: int | None
+) -> tuple[int | None, np.ndarray, np.ndarray]:
+    """The checked horizon and ``data`` as deviations (:func:`deviations`), after checking
+    every argument of a simulation or prediction of ``model`` on ``data``."""
+    if not isinstance(x0, str) or x0 not in X0_CHOICES:
+        raise OptionError(f"x0 must be one of {X0_CHOICES}, got {x0!r}")
+    if not isinstance(model, StateSpaceModel):
+        raise DataError(f"model must be a StateSpaceModel, got {type(model).__name__}")
+    k = check_horizon(model, horizon)
+    u, y = deviations(model, data)
+    return k, u, y
+
+
 def _delay_free(model: StateSpaceModel, u: np.ndarray) -> tuple[StateSpaceModel, np.ndarray]:
     """The model without its input delays, and the inputs shifted by them instead.
 
@@ -195,12 +209,7 @@ def predict(
     >>> bool(np.std(y[:, 0] - one_step[:, 0]) < np.std(y[:, 0] - moli.predict(m, data)[:, 0]))
     True
     """
-    if not isinstance(x0, str) or x0 not in X0_CHOICES:
-        raise OptionError(f"x0 must be one of {X0_CHOICES}, got {x0!r}")
-    if not isinstance(model, StateSpaceModel):
-        raise DataError(f"model must be a StateSpaceModel, got {type(model).__name__}")
-    k = check_horizon(model, horizon)
-    u, y = deviations(model, data)
+    k, u, y = checked_deviations(model, data, x0, horizon)
     # each segment from its own initial state: the predictor does not run across a gap
     ydev = np.concatenate([predicted_deviations(model, u[a:b], y[a:b], k, x0)[0] for a, b in data.bounds])
     return ydev + model.y_offset - data.y_offset
