@@ -146,3 +146,40 @@ def test_identify_refines_the_selected_model():
     assert refined.model.info["refine_cost"] <= refined.model.info["refine_cost_start"]
     # the path up to the order rule is the same search
     assert [st.indices for st in refined.path] == [st.indices for st in plain.path]
+
+
+def _markov_error(model, lags=40):
+    truth = moli.StateSpaceModel(*_plant()).markov(lags)
+    return float(np.linalg.norm(model.markov(lags) - truth) / np.linalg.norm(truth))
+
+
+def test_free_refinement_removes_the_output_noise_bias_that_a_ridge_keeps():
+    # white output noise as large as the outputs: the equation-error least squares is
+    # biased (errors in the variables), output-error minimization is consistent, and a
+    # ridge toward the start keeps part of the start's bias. Measured relative Markov
+    # errors over these seeds: start 0.15-0.19, ridge 1 0.11-0.14, ridge 0 0.02-0.03;
+    # asserting each seed's order and a factor 2 between the medians leaves room for
+    # other noise draws
+    errors = []
+    for seed in range(8):
+        data = _record(noise=1.0, N=1500, seed=seed)
+        start = _start(data)
+        errors.append([_markov_error(start), _markov_error(refine(start, data, ridge=1.0).model),
+                       _markov_error(refine(start, data, ridge=0.0).model)])
+    errors = np.array(errors)
+    assert np.all(errors[:, 2] < errors[:, 1]) and np.all(errors[:, 1] < errors[:, 0])
+    assert np.median(errors[:, 2]) < 0.5 * np.median(errors[:, 1])
+
+
+def test_the_default_identification_is_nearer_the_plant_than_the_ridge_refinement():
+    # the default's free guarded refinement against the same search with the earlier
+    # ridge of 1, on noisy records of a known plant; fresh validation records, so the
+    # guard is not scored on the data it chose
+    default, ridged = [], []
+    for seed in range(4):
+        est, val = _record(noise=1.0, N=1500, seed=seed), _record(noise=1.0, N=600, seed=100 + seed)
+        default.append(_markov_error(moli.identify(est, val, nmax=4).model))
+        ridged.append(_markov_error(moli.identify(est, val, nmax=4, refine_ridge=1.0).model))
+    # measured: relative Markov errors 0.026-0.044 against 0.064-0.077 (order 4 each
+    # time, the plant has 3); the medians' order is what the default promises
+    assert np.median(default) < np.median(ridged)

@@ -14,11 +14,10 @@ from ..data.quality import screen
 from ..errors import ClosedLoopWarning, DataError, OptionError, OrderBoundWarning
 from ..models.statespace import StateSpaceModel
 from ..validation.comparison import compare, same_period
-from ..validation.delays import first_significant_lags
 from ..validation.feedback import feedback_check, usable_lags
 from .estimation import check_sample_count
 from .long_records import reestimate, search_window
-from .records import long_segments, shifted_inputs
+from .records import input_delays, long_segments, shifted_inputs
 from .noise_model import estimate_noise_model
 from .options import IdentifyOptions
 from .refinement import MAX_RADIUS
@@ -237,7 +236,7 @@ def identify(
     if radius == "auto":
         radius = float(np.exp(-AUTO_RADIUS_SPAN / longest_segment(search_window(estimation, opts.search_samples)).N))
     # "auto" delays come from the search window of a long record (docs/method.md §15)
-    delays = _input_delays(opts.delays, search_window(estimation, opts.search_samples)
+    delays = input_delays(opts.delays, search_window(estimation, opts.search_samples)
                            if opts.delays == "auto" else estimation)
     check_sample_count(estimation.N - max(delays), (1,) * p, estimation.m, opts.feedthrough is not False)
     screen(estimation, nmax, stacklevel=2)
@@ -301,9 +300,11 @@ def identify(
         if candidate.mean_vaf > path[selected].mean_vaf:
             path[selected] = candidate
     # covariance (whole record) and noise model (search window) of the delay-free model, on the shifted record
-    path[selected] = replace(path[selected], model=_with_covariance(path[selected].model, fitted))
+    path[selected] = replace(path[selected], model=_attached(estimate_covariance, "covariance",
+                                                             path[selected].model, fitted))
     if opts.noise_model:
-        path[selected] = replace(path[selected], model=_with_noise_model(path[selected].model, searched))
+        path[selected] = replace(path[selected], model=_attached(estimate_noise_model, "noise_model",
+                                                                 path[selected].model, searched))
     if any(delays):
         for step in path:
             step.model = step.model.with_input_delays(delays)
@@ -323,16 +324,15 @@ def identify(
     )
 
 
-def _with_noise_model(model: StateSpaceModel, estimation: IOData) -> StateSpaceModel:
-    """``model`` with its noise model, or unchanged with the reason in ``info``.
-
-    An unstable model's simulation error grows without bound and says nothing about
-    the noise; a record too short for the noise model's least squares leaves none.
-    """
+def _attached(estimator: Callable[[StateSpaceModel, IOData], StateSpaceModel], key: str,
+              model: StateSpaceModel, record: IOData) -> StateSpaceModel:
+    """``estimator(model, record)`` (the covariance or the noise model), or ``model`` with
+    the reason in ``info[key]`` when the estimator refuses it (an unstable model, a
+    record too short for its least squares)."""
     try:
-        return estimate_noise_model(model, estimation)
+        return estimator(model, record)
     except DataError as exc:
-        model.info["noise_model"] = {"method": "none", "reason": str(exc)}
+        model.info[key] = {"method": "none", "reason": str(exc)}
         return model
 
 
@@ -353,15 +353,6 @@ def _fixed_order(path: list[PathStep], order: int | None, interrupted: bool) -> 
                     f"too few samples for lists beyond n = {path[-1].order}")
 
 
-def _with_covariance(model: StateSpaceModel, estimation: IOData) -> StateSpaceModel:
-    """``model`` with the covariance of its matrices, or unchanged with the reason in ``info``."""
-    try:
-        return estimate_covariance(model, estimation)
-    except DataError as exc:
-        model.info["covariance"] = {"method": "none", "reason": str(exc)}
-        return model
-
-
 def _options(options: IdentifyOptions | None, overrides: dict[str, Any]) -> IdentifyOptions:
     """The options of one call: ``options`` (or a named preset) with ``overrides`` applied."""
     preset = overrides.pop("preset", None)
@@ -372,28 +363,6 @@ def _options(options: IdentifyOptions | None, overrides: dict[str, Any]) -> Iden
             raise OptionError("give either options or preset, not both")
         return IdentifyOptions.preset(preset, **overrides)
     return (options or IdentifyOptions()).replace(**overrides)
-
-
-def _input_delays(delays: int | tuple[int, ...] | str, estimation: IOData) -> tuple[int, ...]:
-    """``IdentifyOptions.delays`` for this record: one int per input, checked or estimated."""
-    m = estimation.m
-    if delays == "auto":
-        # lagged regressions run through time: on the longest continuous stretch
-        first, _ = first_significant_lags(longest_segment(estimation))
-        # per input, the earliest response over the outputs; an input that no output
-        # answers within the lags looked at gets no delay (nothing supports one)
-        return tuple(
-            max(int(np.min(col[col >= 0])) - 1, 0) if np.any(col >= 0) else 0 for col in first.T
-        )
-    values = (delays,) * m if isinstance(delays, int) else tuple(delays)
-    if len(values) != m:
-        raise OptionError(f"IdentifyOptions.delays has {len(values)} entries for {m} inputs")
-    if max(values) >= estimation.N:
-        raise OptionError(
-            f"IdentifyOptions.delays must be shorter than the estimation record ({estimation.N} "
-            f"samples), got {list(values)}"
-        )
-    return values
 
 
 def _warn_if_closed_loop(estimation: IOData, lag_zero: bool) -> None:

@@ -27,7 +27,7 @@ __all__ = ["IdentifyOptions"]
 REFINE_CHOICES = ("none", "selected", "path", "guarded")
 # What the earlier presets share and the default no longer does (chosen on the
 # evaporator windows; docs/accuracy.md shows what they cost elsewhere).
-EVAPORATOR_CHOICES = {"order_tolerance": 1.0, "filter_grid": "paper", "refine": "none"}
+EVAPORATOR_CHOICES = {"order_tolerance": 1.0, "filter_grid": "paper", "refine": "none", "refine_ridge": 1.0}
 ORDER_RULES = ("tolerance", "paired")
 PRESETS = ("default", "improved", "bounded", "paper")
 # Shortest search window: a few hundred samples still rank the filters and lists of
@@ -169,8 +169,10 @@ class IdentifyOptions:
         "selected" and "none".
     refine_iterations : int, default 10
         Most Levenberg-Marquardt steps of the refinement.
-    refine_ridge : float, default 1.0
-        Penalty of the refinement toward the MOLI estimate.
+    refine_ridge : float, default 0.0
+        Penalty of the refinement toward the MOLI estimate, relative to each
+        parameter's curvature (docs/method.md §12); 0: free refinement. The earlier
+        presets use 1.
     center : bool, default True
         Remove the estimation record's means from both records (the model stores them).
     x0 : {"zero", "estimate"}, default "zero"
@@ -223,7 +225,7 @@ class IdentifyOptions:
     trend_degree: int = 2
     refine: str = "guarded"
     refine_iterations: int = 10
-    refine_ridge: float = 1.0
+    refine_ridge: float = 0.0
     center: bool = True
     x0: str = "zero"
     noise_model: bool = True

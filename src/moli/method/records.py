@@ -6,13 +6,14 @@ import warnings
 
 import numpy as np
 
-from ..data.iodata import IOData, merge
-from ..errors import DataError, DataQualityWarning
+from ..data.iodata import IOData, longest_segment, merge
+from ..errors import DataError, DataQualityWarning, OptionError
 from ..models.delays import shift_inputs
+from ..validation.delays import first_significant_lags
 from .estimation import check_sample_count
 from .structure import Indices
 
-__all__ = ["long_segments", "shifted_inputs"]
+__all__ = ["long_segments", "shifted_inputs", "input_delays"]
 
 
 def long_segments(data: IOData, nmax: int, feedthrough: bool) -> IOData:
@@ -54,3 +55,25 @@ def shifted_inputs(data: IOData, delays: tuple[int, ...]) -> IOData:
     shifted = IOData(data.y, u, data.Ts, data.output_names, data.input_names, segment_starts=data.segment_starts)
     shifted.y_offset, shifted.u_offset = data.y_offset.copy(), data.u_offset.copy()
     return shifted
+
+
+def input_delays(delays: int | tuple[int, ...] | str, estimation: IOData) -> tuple[int, ...]:
+    """``IdentifyOptions.delays`` for this record: one int per input, checked or estimated."""
+    m = estimation.m
+    if delays == "auto":
+        # lagged regressions run through time: on the longest continuous stretch
+        first, _ = first_significant_lags(longest_segment(estimation))
+        # per input, the earliest response over the outputs; an input that no output
+        # answers within the lags looked at gets no delay (nothing supports one)
+        return tuple(
+            max(int(np.min(col[col >= 0])) - 1, 0) if np.any(col >= 0) else 0 for col in first.T
+        )
+    values = (delays,) * m if isinstance(delays, int) else tuple(delays)
+    if len(values) != m:
+        raise OptionError(f"IdentifyOptions.delays has {len(values)} entries for {m} inputs")
+    if max(values) >= estimation.N:
+        raise OptionError(
+            f"IdentifyOptions.delays must be shorter than the estimation record ({estimation.N} "
+            f"samples), got {list(values)}"
+        )
+    return values

@@ -19,7 +19,10 @@ from .scoring import FilterScorer
 from .tuning import tune_filters
 from ..validation.comparison import compare
 
-__all__ = ["PathStep", "StructureSearch", "greedy_path", "exhaustive", "select_order", "select_order_paired"]
+__all__ = [
+    "PathStep", "StructureSearch", "greedy_path", "exhaustive", "select_order", "select_order_paired",
+    "error_shares", "paired_difference",
+]
 
 
 # Batches of the paired order rule: enough for a standard error, each long enough
@@ -305,21 +308,36 @@ def select_order_paired(path: list[PathStep], validation: IOData, x0: str = "zer
     """
     eligible = [i for i, st in enumerate(path) if st.stable] or list(range(len(path)))
     best = max(eligible, key=lambda i: path[i].mean_vaf)
-    y = validation.y
-    scale = 100.0 / (y.shape[1] * np.maximum(np.sum((y - y.mean(axis=0)) ** 2, axis=0), 1e-300))
-
-    def shares(i: int) -> np.ndarray:
-        error = y - compare(path[i].model, validation, x0).yhat
-        return np.nan_to_num((error**2) @ scale, nan=np.inf, posinf=np.inf)
-
-    reference = shares(best)
-    batches = np.array_split(np.arange(y.shape[0]), min(PAIRED_BATCHES, y.shape[0]))
+    reference = error_shares(path[best].model, validation, x0)
     for i in sorted(eligible, key=lambda i: path[i].order):
         if i == best:
             return i
-        sums = np.array([np.sum(shares(i)[b] - reference[b]) for b in batches])
-        worse = sums.sum()
-        spread = np.sqrt(len(sums) / max(len(sums) - 1, 1) * np.sum((sums - worse / len(sums)) ** 2))
+        worse, spread = paired_difference(error_shares(path[i].model, validation, x0), reference)
         if np.isfinite(worse) and worse <= z * spread:
             return i
     return best
+
+
+def error_shares(model: StateSpaceModel, validation: IOData, x0: str = "zero") -> np.ndarray:
+    """Each sample's share of the mean validation VAF the model loses, in points.
+
+    The shares sum to ``100 - mean VAF`` (before VAF's clipping at 0); a diverging
+    simulation gives inf.
+    """
+    y = validation.y
+    scale = 100.0 / (y.shape[1] * np.maximum(np.sum((y - y.mean(axis=0)) ** 2, axis=0), 1e-300))
+    error = y - compare(model, validation, x0).yhat
+    return np.nan_to_num((error**2) @ scale, nan=np.inf, posinf=np.inf)
+
+
+def paired_difference(shares: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
+    """Points of mean VAF by which ``shares`` lose to ``reference``, and its standard error.
+
+    The error comes from :data:`PAIRED_BATCHES` contiguous batch sums of the per-sample
+    differences, which keeps the serial correlation of simulation errors.
+    """
+    batches = np.array_split(np.arange(shares.size), min(PAIRED_BATCHES, shares.size))
+    sums = np.array([np.sum(shares[b] - reference[b]) for b in batches])
+    worse = float(sums.sum())
+    spread = float(np.sqrt(len(sums) / max(len(sums) - 1, 1) * np.sum((sums - worse / len(sums)) ** 2)))
+    return worse, spread
