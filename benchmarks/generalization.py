@@ -90,7 +90,7 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "default_trend0": {"trend_degree": 0},
     "default_trend1": {"trend_degree": 1},
     "default_ridge1": {"refine_ridge": 1.0},
-    "default_ridge01": {"refine_ridge": 0.1},
+    "default_ridge0": {"refine_ridge": 0.0},
     "default_refine20": {"refine_iterations": 20},
 }
 LENGTHS = (("N_E < 1000", 0, 999), ("N_E 1000-5000", 1000, 5000), ("N_E > 5000", 5001, 10 ** 9))

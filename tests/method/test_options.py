@@ -30,7 +30,7 @@ BAD = {
     "trend_degree": (2.0, 6),
     "refine": (1, "all"),
     "refine_iterations": ("10", 0),
-    "refine_ridge": ("1", -1.0),
+    "refine_ridge": ("1", ()),
     "center": ("yes", None),
     "x0": (None, "random"),
     "noise_model": ("yes", None),
@@ -57,6 +57,9 @@ def test_accepted_spellings_are_normalized():
     assert opts.max_radius is None and opts.refine == "selected" and opts.s == 3.0
     assert opts.omega == ((0.1, 0.7),)
     assert IdentifyOptions(refine=False).refine == "none"
+    assert IdentifyOptions(refine_ridge=[0, np.float64(2.5)]).refine_ridge == (0.0, 2.5)
+    with pytest.raises(OptionError, match="refine_ridge must be"):
+        IdentifyOptions(refine_ridge=(0.0, -1.0))
 
 
 def test_options_are_frozen_and_replace_checks_again():

@@ -271,10 +271,12 @@ def identify(
             interrupted = True
     bound = MAX_RADIUS if radius is None else min(radius, MAX_RADIUS)
 
-    def refined(step: PathStep) -> PathStep:
+    ridges = opts.refine_ridge if isinstance(opts.refine_ridge, tuple) else (opts.refine_ridge,)
+
+    def refined(step: PathStep, ridge: float = ridges[0]) -> PathStep:
         started = time.perf_counter()
         result = refine_model(step.model, searched, iterations=opts.refine_iterations,
-                              ridge=opts.refine_ridge, max_radius=bound)
+                              ridge=ridge, max_radius=bound)
         vaf = compare(result.model, scored, opts.x0).vaf
         return replace(step, model=result.model, vaf=vaf,
                        seconds=step.seconds + time.perf_counter() - started)
@@ -296,9 +298,11 @@ def identify(
     if opts.refine == "selected":
         path[selected] = refined(path[selected])
     elif opts.refine == "guarded":
-        candidate = refined(path[selected])
-        if candidate.mean_vaf > path[selected].mean_vaf:
-            path[selected] = candidate
+        start_step = path[selected]
+        for ridge in ridges:         # each from the unrefined model; the best on validation stays
+            candidate = refined(start_step, ridge)
+            if candidate.mean_vaf > path[selected].mean_vaf:
+                path[selected] = candidate
     # covariance (whole record) and noise model (search window) of the delay-free model, on the shifted record
     path[selected] = replace(path[selected], model=_attached(estimate_covariance, "covariance",
                                                              path[selected].model, fitted))

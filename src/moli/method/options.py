@@ -59,6 +59,15 @@ def _number(name: str, value: object, accepted: str, ok: Any) -> float:
     return number
 
 
+def _ridges(value: object) -> float | tuple[float, ...]:
+    accepted = "a number >= 0, or a non-empty sequence of them (guarded refinement tries each)"
+    if isinstance(value, (list, tuple)):
+        if not value:
+            raise _fail("refine_ridge", accepted, value)
+        return tuple(_number("refine_ridge", v, accepted, lambda r: r >= 0) for v in value)
+    return _number("refine_ridge", value, accepted, lambda r: r >= 0)
+
+
 def _choice(name: str, value: object, choices: tuple[Any, ...]) -> Any:
     for choice in choices:
         if value is choice or (isinstance(value, str) and value == choice):
@@ -169,10 +178,12 @@ class IdentifyOptions:
         "selected" and "none".
     refine_iterations : int, default 10
         Most Levenberg-Marquardt steps of the refinement.
-    refine_ridge : float, default 0.0
+    refine_ridge : float or tuple of float, default (0.0, 1.0)
         Penalty of the refinement toward the MOLI estimate, relative to each
-        parameter's curvature (docs/method.md §12); 0: free refinement. The earlier
-        presets use 1.
+        parameter's curvature (docs/method.md §12); 0: free refinement. Several values:
+        "guarded" refines the MOLI estimate once with each and keeps the one that raises
+        the mean validation VAF most (or none); "selected" and "path" use the first. The
+        earlier presets use 1.
     center : bool, default True
         Remove the estimation record's means from both records (the model stores them).
     x0 : {"zero", "estimate"}, default "zero"
@@ -225,7 +236,7 @@ class IdentifyOptions:
     trend_degree: int = 2
     refine: str = "guarded"
     refine_iterations: int = 10
-    refine_ridge: float = 0.0
+    refine_ridge: float | tuple[float, ...] = (0.0, 1.0)
     center: bool = True
     x0: str = "zero"
     noise_model: bool = True
@@ -261,8 +272,7 @@ class IdentifyOptions:
             "trend_degree": _integer("trend_degree", self.trend_degree, 0, MAX_TREND_DEGREE),
             "refine": _choice("refine", refine, REFINE_CHOICES),
             "refine_iterations": _integer("refine_iterations", self.refine_iterations, 1),
-            "refine_ridge": _number("refine_ridge", self.refine_ridge, "a number >= 0",
-                                    lambda r: r >= 0),
+            "refine_ridge": _ridges(self.refine_ridge),
             "center": _flag("center", self.center),
             "x0": _choice("x0", self.x0, X0_CHOICES),
             "noise_model": _flag("noise_model", self.noise_model),
