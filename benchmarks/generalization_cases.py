@@ -248,3 +248,10 @@ def true_scores(case: Case, model: pl.ABCD) -> dict[str, float]:
         warnings.simplefilter("ignore")
         fit = mean_vaf(case.fresh_y, moli.StateSpaceModel(*model).simulate(case.fresh_u))
     return {"true_fit": fit, "h2": h2_norm(*error) / h2_norm(*case.truth)}
+
+
+def truth_v2(case: Case, half: int) -> float:
+    """The true system's own V2 VAF under the protocol (zero state over V1 and V2, noisy
+    outputs scored on V2): the most a model can reach there, up to chance."""
+    yhat = moli.StateSpaceModel(*case.truth).simulate(case.val.u)
+    return mean_vaf(case.val.y[half:], yhat[half:])

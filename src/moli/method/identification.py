@@ -165,8 +165,8 @@ def identify(
         Validation record, used only by the order rule. When omitted, the last
         30 % of ``data`` is held out for it (``result.validation_source`` says so).
     options : IdentifyOptions, optional
-        Every choice of the identification; default ``IdentifyOptions()`` (the
-        ``improved`` preset).
+        Every choice of the identification; default ``IdentifyOptions()``, the defaults
+        chosen on the generalization benchmark (docs/accuracy.md).
     progress : callable, optional
         Called with each :class:`PathStep` as the path grows.
     **overrides

@@ -296,7 +296,8 @@ class IdentifyOptions:
     @classmethod
     def default(cls, **changes: Any) -> "IdentifyOptions":
         """The defaults (docs/accuracy.md): the best validation order, the wide filter
-        grid, guarded refinement, and the improved preset's other choices."""
+        grid, guarded refinement (free and with a ridge, the better on validation), and
+        the improved preset's other choices."""
         return cls(**changes)
 
     @classmethod

@@ -19,10 +19,7 @@ from .scoring import FilterScorer
 from .tuning import tune_filters
 from ..validation.comparison import compare
 
-__all__ = [
-    "PathStep", "StructureSearch", "greedy_path", "exhaustive", "select_order", "select_order_paired",
-    "error_shares", "paired_difference",
-]
+__all__ = ["PathStep", "StructureSearch", "greedy_path", "exhaustive", "select_order", "select_order_paired"]
 
 
 # Batches of the paired order rule: enough for a standard error, each long enough
@@ -308,29 +305,26 @@ def select_order_paired(path: list[PathStep], validation: IOData, x0: str = "zer
     """
     eligible = [i for i, st in enumerate(path) if st.stable] or list(range(len(path)))
     best = max(eligible, key=lambda i: path[i].mean_vaf)
-    reference = error_shares(path[best].model, validation, x0)
+    reference = _error_shares(path[best].model, validation, x0)
     for i in sorted(eligible, key=lambda i: path[i].order):
         if i == best:
             return i
-        worse, spread = paired_difference(error_shares(path[i].model, validation, x0), reference)
+        worse, spread = _paired_difference(_error_shares(path[i].model, validation, x0), reference)
         if np.isfinite(worse) and worse <= z * spread:
             return i
     return best
 
 
-def error_shares(model: StateSpaceModel, validation: IOData, x0: str = "zero") -> np.ndarray:
-    """Each sample's share of the mean validation VAF the model loses, in points.
-
-    The shares sum to ``100 - mean VAF`` (before VAF's clipping at 0); a diverging
-    simulation gives inf.
-    """
+def _error_shares(model: StateSpaceModel, validation: IOData, x0: str = "zero") -> np.ndarray:
+    """Each sample's squared simulation error, in points: summed over the samples, the mean
+    over the outputs of ``100 |e_j|^2 / |y_j - mean(y_j)|^2``; inf where the simulation diverges."""
     y = validation.y
     scale = 100.0 / (y.shape[1] * np.maximum(np.sum((y - y.mean(axis=0)) ** 2, axis=0), 1e-300))
     error = y - compare(model, validation, x0).yhat
     return np.nan_to_num((error**2) @ scale, nan=np.inf, posinf=np.inf)
 
 
-def paired_difference(shares: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
+def _paired_difference(shares: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
     """Points of mean VAF by which ``shares`` lose to ``reference``, and its standard error.
 
     The error comes from :data:`PAIRED_BATCHES` contiguous batch sums of the per-sample
