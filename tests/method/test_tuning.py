@@ -111,6 +111,26 @@ def test_stability_bound_gives_the_worst_score():
     assert np.all(J == 1.0)
 
 
+def test_stability_rule_equals_fit_score_then_worst_for_slow_poles():
+    # the rule skips the pole radii of models that leave every output's variance (already
+    # the worst J); the result must be the fit score with every slow model set to 1
+    A, B, C = _random_system(3, 2, 1, seed=6, radius=0.8)
+    z = _data(A, B, C, noise=0.05)
+    scorer = FilterScorer(z, (2, 1), 1.0, 2.0, max_radius=0.9)
+    loud = C * np.array([[50.0], [1.0]])       # the first output's error exceeds its variance
+    # the plant, a slow copy that still fits, a fast copy, a stable and a slow model that
+    # miss both outputs, and a slow one that misses only the first
+    batch_A = np.stack([A, 1.2 * A, 0.5 * A, A, 1.2 * A, 1.2 * A])
+    batch_B = np.stack([B, B, B, 50.0 * B, 50.0 * B, B])
+    batch_C = np.stack([C, C, C, C, C, loud])
+    fit_only = scorer.criterion((batch_A, batch_B, batch_C), radius_rule=False)
+    ruled = scorer.criterion((batch_A, batch_B, batch_C))
+    slow = np.max(np.abs(np.linalg.eigvals(batch_A)), axis=1) >= 0.9
+    assert slow.tolist() == [False, True, False, False, True, True]
+    assert fit_only[1] < 1.0 and fit_only[3] == 1.0 and 0.5 <= fit_only[5] < 1.0
+    np.testing.assert_array_equal(ruled, np.where(slow, 1.0, fit_only))
+
+
 def test_initial_response_fits_a_free_response_exactly():
     from moli.method.scoring import _initial_response
 

@@ -230,29 +230,32 @@ class RegressionCache:
         q0 = q1 - m
         norms = np.sqrt(np.add.reduce(small * small, axis=1, keepdims=True))   # np.linalg.norm's sums
         norms[norms == 0] = 1.0
-        # each matrix stored column by column for LAPACK, factored in place one at a
-        # time: most batches hold one or two filters, where a stacked np.linalg.qr and
-        # solve cost several times the arithmetic (same routines, same R)
-        scaled = np.empty((count, q1 + 1, k_rows))
-        np.divide(small.transpose(0, 2, 1), norms.transpose(0, 2, 1), out=scaled[:, :q1])
-        scaled[:, q1] = rhs
-        critical = _f_critical(m, dof)
-        theta = np.zeros((count, q1))
+        scaled = np.empty((count, k_rows, q1 + 1))
+        np.divide(small, norms, out=scaled[:, :, :q1])
+        scaled[:, :, q1] = rhs
+        # one stacked factorization (numpy's loop over LAPACK's dgeqrf, the same R as
+        # factoring each matrix alone), then the nested F-tests of all of them at once
+        r = np.linalg.qr(scaled, mode="r")
+        rss1 = r[:, q1, q1] ** 2
+        tail = r[:, q0 : q1 + 1, q1]
         with np.errstate(divide="ignore", invalid="ignore"):
-            for i in range(count):
-                r = scipy.linalg.lapack.dgeqrf(scaled[i].T, overwrite_a=True)[0]
-                rss1 = r[q1, q1] ** 2
-                tail = r[q0 : q1 + 1, q1]
-                statistic = (tail @ tail - rss1) / m / (rss1 / dof)
-                k = q0 if statistic <= critical else q1    # NaN (exact fit) keeps the feedthrough
-                diag = np.abs(r.diagonal()[:k])
-                smallest = diag.min()
-                if self.regularization == "gcv":
-                    theta[i, :k] = ridge_gcv(small[None, i, :, :k] / norms[None, i, :, :k], rhs[None, i], dof + q1)[0]
-                elif smallest > 0 and diag.max() / smallest < 1e13:
-                    theta[i, :k] = scipy.linalg.lapack.dtrtrs(r[:k, :k], r[:k, q1])[0]
-                else:                                      # rank deficient: minimum-norm solution
-                    theta[i, :k] = scipy.linalg.lstsq(small[i, :, :k] / norms[i, 0, :k], rhs[i])[0]
+            statistic = (np.einsum("ij,ij->i", tail, tail) - rss1) / m / (rss1 / dof)
+        # NaN (an exact fit) keeps the feedthrough
+        kept = np.where(statistic <= _f_critical(m, dof), q0, q1)
+        diag = np.abs(np.diagonal(r, axis1=1, axis2=2))
+        # each fit's conditioning over its own columns (the first q0, or all q1)
+        smallest = np.where(kept == q0, diag[:, :q0].min(axis=1), diag[:, :q1].min(axis=1))
+        largest = np.where(kept == q0, diag[:, :q0].max(axis=1), diag[:, :q1].max(axis=1))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            regular = (smallest > 0) & (largest / smallest < 1e13)
+        theta = np.zeros((count, q1))
+        for i, (k, ok) in enumerate(zip(kept.tolist(), regular.tolist())):
+            if self.regularization == "gcv":
+                theta[i, :k] = ridge_gcv(small[None, i, :, :k] / norms[None, i, :, :k], rhs[None, i], dof + q1)[0]
+            elif ok:
+                theta[i, :k] = scipy.linalg.lapack.dtrtrs(r[i, :k, :k], r[i, :k, q1])[0]
+            else:                                      # rank deficient: minimum-norm solution
+                theta[i, :k] = scipy.linalg.lstsq(small[i, :, :k] / norms[i, 0, :k], rhs[i])[0]
         return theta / norms[:, 0, :]
 
 
@@ -352,30 +355,16 @@ def _band(nbar: int, l: int) -> np.ndarray:
     return np.where((k >= 0) & (k <= d), k, d + 1)
 
 
-def _regressor_map(
-    alpha: np.ndarray, alpha_j: np.ndarray, c: int, p: int, j: int, m: int = 0
-) -> np.ndarray:
-    """Matrix ``T`` with ``[xi, y] T`` = output ``j``'s regressors ``[w_j, y_<j]``.
-
-    Column ``r l + i`` is ``q^i/alpha_j`` applied to channel ``r``, a combination of the
-    columns ``r nbar + t`` of ``xi`` (see :func:`_quotient_map`). With ``m > 0`` the data
-    matrix is ``[xi, y, u]`` and the ``m`` current inputs are appended to the regressors
-    (direct feedthrough).
-    """
-    nbar, l = alpha.size - 1, alpha_j.size - 1
-    T = np.kron(np.eye(c), _quotient_map(alpha, alpha_j))
-    tail = np.zeros((p + m, c * l + j + m))
-    tail[np.arange(j), c * l + np.arange(j)] = 1.0
-    tail[p + np.arange(m), c * l + j + np.arange(m)] = 1.0
-    return np.vstack([np.hstack([T, np.zeros((c * nbar, j + m))]), tail])
-
-
 def _small_problems(
     factors: np.ndarray, quotients: np.ndarray, c: int, p: int, j: int, m: int
 ) -> tuple[np.ndarray, np.ndarray]:
     """``(R T, R e)``: output ``j``'s least-squares problems reduced by the factors ``R``.
 
-    Same as ``factor @ _regressor_map(...)`` for each filter, without forming ``T``.
+    ``T`` maps ``[xi, y]`` to output ``j``'s regressors ``[w_j, y_<j]``: column ``r l + i``
+    of ``w_j`` is ``q^i/alpha_j`` applied to channel ``r``, the combination of the columns
+    ``r nbar + t`` of ``xi`` given by :func:`_quotient_map`; with ``m > 0`` the factors are
+    of ``[xi, y, u]`` and the current inputs follow (direct feedthrough). ``T`` is never
+    formed.
 
     Parameters
     ----------

@@ -241,7 +241,9 @@ class FilterScorer:
             yhat = yhat + self._by_segment(lambda a, b: _initial_response(A, C, self.y[None, a:b] - yhat[:, a:b]))
         ratio = error_ratio(self.y, yhat, self.trend_degree, self.y_var, self.starts)
         if radius_rule:
-            ratio[self.too_slow(A)] = 1.0
+            # a model that leaves every output's whole variance already scores the worst J
+            undecided = np.flatnonzero(ratio.min(axis=1) < 1.0)
+            ratio[undecided[self.too_slow(A[undecided])]] = 1.0
         return ratio.mean(axis=1)
 
     def _simulate(self, A: np.ndarray, B: np.ndarray, C: np.ndarray) -> np.ndarray:
