@@ -29,7 +29,7 @@ import scipy.linalg  # noqa: E402
 import moli  # noqa: E402
 from moli.method.covariance import matrix_directions  # noqa: E402
 from moli.method.estimation import output_regressors  # noqa: E402
-from moli.method.refinement import observer_form  # noqa: E402
+from moli.method.observer_form import observer_form  # noqa: E402
 
 OMEGA = np.linspace(0.05, 3.0, 30)
 STEPS = 40

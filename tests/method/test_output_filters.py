@@ -9,7 +9,8 @@ from moli.errors import DataError
 from moli.method.estimation import fit_batch
 from moli.method.filters import filter_divisors
 from moli.method.output_filters import tune_output_cutoffs
-from moli.method.refinement import observer_form, refine
+from moli.method.observer_form import observer_form
+from moli.method.refinement import refine
 from moli.method.regression import RegressionCache
 from moli.method.scoring import FilterScorer
 from moli.method.tuning import default_omega, tune_filter

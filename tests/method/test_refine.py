@@ -5,7 +5,8 @@ import pytest
 
 import moli
 from moli.errors import OptionError
-from moli.method.refinement import _Problem, observer_form, refine
+from moli.method.observer_form import observer_form
+from moli.method.refinement import _Problem, refine, refine_each
 
 
 def _plant(seed=0):
@@ -133,8 +134,29 @@ def test_bad_options_raise():
         refine(start, data, iterations=-1)
     with pytest.raises(OptionError, match="ridge"):
         refine(start, data, ridge=-1.0)
+    with pytest.raises(OptionError, match="ridge"):
+        refine_each(start, data, ())
+    with pytest.raises(OptionError, match="ridge"):
+        refine_each(start, data, (0.0, np.nan))
     with pytest.raises(OptionError, match="max_radius"):
         refine(start, data, max_radius=1.5)
+
+
+def test_several_ridges_give_each_ridge_alone_to_the_bit():
+    # the start's simulation, initial state, first Jacobian and its factor are shared by
+    # the ridges: every result must equal the refinement run alone with that ridge
+    data = _record(noise=0.3, seed=3)
+    start = _start(data)
+    ridges = (0.0, 1.0, 0.1)
+    together = refine_each(start, data, ridges)
+    for ridge, shared in zip(ridges, together):
+        alone = refine(start, data, ridge=ridge)
+        assert (shared.iterations, shared.cost, shared.cost_start) == (alone.iterations, alone.cost, alone.cost_start)
+        for name in ("A", "B", "C", "D"):
+            np.testing.assert_array_equal(getattr(shared.model, name), getattr(alone.model, name))
+        np.testing.assert_array_equal(shared.x0, alone.x0)
+    # the ridges lead to different models: sharing the start does not merge them
+    assert together[0].iterations > 0 and together[0].cost < together[1].cost
 
 
 def test_identify_refines_the_selected_model():

@@ -5,7 +5,8 @@ of observability indices), :mod:`.filters` (the filter α and its divisors),
 :mod:`.estimation` (least squares for a fixed structure, realization),
 :mod:`.regression` and :mod:`.scoring` (the shared factors and the criterion J),
 :mod:`.tuning` (the barycenter filter search), :mod:`.output_filters`,
-:mod:`.search` (greedy path, order rule), :mod:`.refinement`, :mod:`.noise_model`
+:mod:`.search` (greedy path, order rule), :mod:`.refinement` (on the parameters of
+:mod:`.observer_form`), :mod:`.noise_model`
 (Kalman gain from the residuals), :mod:`.covariance` and :mod:`.uncertainty` (the
 covariance of the parameters and of the matrices), :mod:`.options` and :mod:`.identification` (the
 one-call entry point); :mod:`.fleet` identifies many records
@@ -18,14 +19,14 @@ from .filters import divisor, divisors, filter_polynomial
 from .identification import IdentificationResult, identify
 from .noise_model import estimate_noise_model
 from .options import IdentifyOptions
-from .refinement import RefineResult, refine
+from .refinement import RefineResult, refine, refine_each
 from .search import PathStep, exhaustive
 from .tuning import TuningResult, default_omega, tune_filter
 from .uncertainty import estimate_covariance
 
 __all__ = [
     "estimate", "realize", "divisor", "divisors", "filter_polynomial", "IdentificationResult",
-    "identify", "IdentifyOptions", "estimate_noise_model", "RefineResult", "refine", "PathStep", "exhaustive",
+    "identify", "IdentifyOptions", "estimate_noise_model", "RefineResult", "refine", "refine_each", "PathStep", "exhaustive",
     "TuningResult", "default_omega", "tune_filter", "estimate_covariance",
     "FleetEntry", "FleetResult", "identify_many",
 ]

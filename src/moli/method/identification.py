@@ -21,7 +21,7 @@ from .records import input_delays, long_segments, shifted_inputs
 from .noise_model import estimate_noise_model
 from .options import IdentifyOptions
 from .refinement import MAX_RADIUS
-from .refinement import refine as refine_model
+from .refinement import refine_each
 from .search import PathStep, StructureSearch, greedy_path, select_order, select_order_paired
 from .tuning import default_omega
 from .uncertainty import estimate_covariance
@@ -273,17 +273,18 @@ def identify(
 
     ridges = opts.refine_ridge if isinstance(opts.refine_ridge, tuple) else (opts.refine_ridge,)
 
-    def refined(step: PathStep, ridge: float = ridges[0]) -> PathStep:
+    def refined(step: PathStep, chosen: tuple[float, ...] = ridges[:1]) -> list[PathStep]:
+        """The step refined with each ridge, from its model; each counts the time of all."""
         started = time.perf_counter()
-        result = refine_model(step.model, searched, iterations=opts.refine_iterations,
-                              ridge=ridge, max_radius=bound)
-        vaf = compare(result.model, scored, opts.x0).vaf
-        return replace(step, model=result.model, vaf=vaf,
-                       seconds=step.seconds + time.perf_counter() - started)
+        models = [result.model for result in refine_each(step.model, searched, chosen, max_radius=bound,
+                                                         iterations=opts.refine_iterations)]
+        vafs = [compare(model, scored, opts.x0).vaf for model in models]
+        seconds = step.seconds + time.perf_counter() - started
+        return [replace(step, model=model, vaf=vaf, seconds=seconds) for model, vaf in zip(models, vafs)]
 
     unrefined = list(path)
     if opts.refine == "path" and not interrupted:
-        path[:] = [refined(st) for st in path]
+        path[:] = [refined(st)[0] for st in path]
     selected = _fixed_order(path, opts.order, interrupted)
     if selected is None and opts.order_rule == "paired":
         selected = select_order_paired(path, scored, opts.x0)
@@ -294,13 +295,12 @@ def identify(
                                     opts.regularization)
         path[selected].model.info["search_samples"] = searched.N
         if opts.refine == "path":
-            path[selected] = refined(path[selected])
+            path[selected] = refined(path[selected])[0]
     if opts.refine == "selected":
-        path[selected] = refined(path[selected])
+        path[selected] = refined(path[selected])[0]
     elif opts.refine == "guarded":
-        start_step = path[selected]
-        for ridge in ridges:         # each from the unrefined model; the best on validation stays
-            candidate = refined(start_step, ridge)
+        # each ridge from the unrefined model; the best on validation stays
+        for candidate in refined(path[selected], ridges):
             if candidate.mean_vaf > path[selected].mean_vaf:
                 path[selected] = candidate
     # covariance (whole record) and noise model (search window) of the delay-free model, on the shifted record

@@ -23,82 +23,23 @@ accepted only if it lowers ``V`` *and* keeps every pole inside the circle of rad
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Iterator
+from typing import Iterator, Sequence
 
 import numpy as np
-import scipy.linalg
 
 from ..data.iodata import IOData
 from ..errors import DataError, OptionError
-from .estimation import _filter_companion
-from .filters import divisors
+from .observer_form import ObserverForm, observer_form
 from .row_blocks import column_norms, tall_factor
 from ..models.delays import shift_inputs
 from ..models.statespace import StateSpaceModel
 from ..models.simulation import free_response, simulate_batch
 
-__all__ = ["ObserverForm", "observer_form", "RefineResult", "refine"]
+__all__ = ["RefineResult", "refine", "refine_each"]
 
 # Poles may move up to this radius: 1 - 1e-3 keeps time constants below 1000 samples,
 # far beyond any record the method is used on, while leaving round-off room.
 MAX_RADIUS = 1.0 - 1e-3
-
-
-@dataclass
-class ObserverForm:
-    """The observer-form pieces of a MOLI model.
-
-    ``A = A_D + D C``, ``C = (I - G)^-1 C_D``; ``B`` and the feedthrough ``F`` (zero
-    unless the model was estimated with one) are free.
-    """
-
-    A_D: np.ndarray
-    C_D: np.ndarray
-    D: np.ndarray
-    B: np.ndarray
-    G: np.ndarray
-    F: np.ndarray
-
-    def matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(A, B, C)`` of the model (its feedthrough is ``F``)."""
-        p = self.G.shape[0]
-        C = np.linalg.solve(np.eye(p) - self.G, self.C_D)
-        return self.A_D + self.D @ C, self.B, C
-
-
-def observer_form(model: StateSpaceModel) -> ObserverForm:
-    """Recover ``A_D, C_D, D, B, G`` from a model estimated by MOLI.
-
-    Parameters
-    ----------
-    model : StateSpaceModel
-        Must carry ``indices`` and its filters, ``alpha`` or per-output ``divisors``
-        (models from :func:`moli.estimate` or :func:`moli.identify` do).
-
-    Returns
-    -------
-    ObserverForm
-    """
-    filters = model.divisors
-    if filters is None and model.alpha is not None and model.indices is not None:
-        filters = divisors(model.alpha, model.indices)
-    if filters is None:
-        raise DataError("refinement needs a MOLI model that carries its indices and filter polynomials")
-    indices = model.indices
-    n, p = model.n, model.p
-    A_D = _filter_companion([alpha_j[None] for alpha_j in filters], indices)[0]
-    C_D = np.zeros((p, n))
-    last = np.cumsum(indices) - 1
-    C_D[np.arange(p), last] = 1.0
-    # C = H C_D with H = (I - G)^-1 unit lower triangular and C_D picking each block's
-    # last state, so A - A_D = D C has its only nonzero columns there: D = (A - A_D)[:, last] H^-1.
-    # Triangular solves keep this exact whatever the outputs' units (a least-squares
-    # fit on C loses the small entries when the outputs' scales differ by many decades).
-    H = model.C[:, last]
-    H_inv = scipy.linalg.solve_triangular(H, np.eye(p), lower=True, unit_diagonal=True)
-    G = np.tril(np.eye(p) - H_inv, -1)
-    D = (model.A - A_D)[:, last] @ H_inv
-    return ObserverForm(A_D, C_D, D, model.B.copy(), G, model.D.copy())
 
 
 @dataclass
@@ -324,57 +265,117 @@ def refine(
     >>> bool(result.cost <= result.cost_start)
     True
     """
+    return refine_each(model, data, (ridge,), iterations=iterations, fit_x0=fit_x0,
+                       max_radius=max_radius, tolerance=tolerance)[0]
+
+
+def refine_each(
+    model: StateSpaceModel,
+    data: IOData,
+    ridges: Sequence[float],
+    *,
+    iterations: int = 10,
+    fit_x0: bool = True,
+    max_radius: float = MAX_RADIUS,
+    tolerance: float = 1e-4,
+) -> list[RefineResult]:
+    """:func:`refine` of one start with each of several ridges.
+
+    Each result is the one :func:`refine` gives with that ridge, to the bit; the work
+    they share (the start's simulation, its initial state, its Jacobian and that
+    Jacobian's triangular factor) is done once.
+
+    Parameters
+    ----------
+    model, data, iterations, fit_x0, max_radius, tolerance
+        As in :func:`refine`.
+    ridges : sequence of float
+        The ridges, at least one.
+
+    Returns
+    -------
+    list of RefineResult
+        One per ridge, in order.
+    """
     if int(iterations) != iterations or iterations < 0:
         raise OptionError(f"iterations must be a non-negative integer, got {iterations!r}")
-    if not (np.isfinite(ridge) and ridge >= 0):
-        raise OptionError(f"ridge must be a non-negative number, got {ridge!r}")
+    ridges = tuple(ridges)
+    if not ridges or not all(np.isfinite(r) and r >= 0 for r in ridges):
+        raise OptionError(f"each ridge must be a non-negative number, and one at least; got {ridges!r}")
     if not 0 < max_radius <= 1:
         raise OptionError(f"max_radius must be in (0, 1], got {max_radius!r}")
     if (data.p, data.m) != (model.p, model.m):
         raise DataError(f"model has {model.p} outputs and {model.m} inputs, data {data.p} and {data.m}")
-    form = observer_form(model)
-    # a model with input delays is refined on the inputs as its simulation shifts them
-    # each segment from its own initial state, its inputs shifted within it
-    u = np.concatenate([shift_inputs(data.u[a:b], model.input_delays) for a, b in data.bounds])
-    problem = _Problem(form, u, data.y, fit_x0, data.segment_starts)
-    theta0 = problem.pack(form, np.zeros(problem.x0_size))
-    theta = theta0.copy()
-    yhat, _, _ = problem.simulate(theta)
-    residual = problem.residual(yhat)
-    stable = bool(np.max(np.abs(model.poles()), initial=0.0) < max_radius)
-    if fit_x0 and stable:
-        # start from the best initial state for the start model (a linear problem)
-        theta[-problem.x0_size :] = np.linalg.lstsq(problem.initial_state_columns(theta), residual, rcond=None)[0]
+    start = _Start(model, data, fit_x0, max_radius)
+    return [start.descend(ridge, iterations, tolerance) for ridge in ridges]
+
+
+class _Start:
+    """The start of a refinement, shared by the ridges refined from it."""
+
+    def __init__(self, model: StateSpaceModel, data: IOData, fit_x0: bool, max_radius: float) -> None:
+        self.model, self.data, self.fit_x0, self.max_radius = model, data, fit_x0, max_radius
+        form = observer_form(model)
+        # a model with input delays is refined on the inputs as its simulation shifts them
+        # each segment from its own initial state, its inputs shifted within it
+        u = np.concatenate([shift_inputs(data.u[a:b], model.input_delays) for a, b in data.bounds])
+        problem = self.problem = _Problem(form, u, data.y, fit_x0, data.segment_starts)
+        self.theta0 = problem.pack(form, np.zeros(problem.x0_size))
+        theta = self.theta0.copy()
         yhat, _, _ = problem.simulate(theta)
         residual = problem.residual(yhat)
-    scale = None
-    penalty = np.sqrt(ridge)
+        self.stable = bool(np.max(np.abs(model.poles()), initial=0.0) < max_radius)
+        if fit_x0 and self.stable:
+            # start from the best initial state for the start model (a linear problem)
+            theta[-problem.x0_size :] = np.linalg.lstsq(problem.initial_state_columns(theta), residual, rcond=None)[0]
+            yhat, _, _ = problem.simulate(theta)
+            residual = problem.residual(yhat)
+        self.theta, self.yhat, self.residual = theta, yhat, residual
+        self.cost = float(residual @ residual)
+        self._linearized: tuple[np.ndarray, np.ndarray | None] | None = None
 
-    def total(res: np.ndarray, th: np.ndarray) -> float:
-        extra = 0.0 if scale is None or ridge == 0 else float(np.sum((penalty * scale * (th - theta0)) ** 2))
-        return float(res @ res) + extra
+    def linearize(self, theta: np.ndarray, yhat: np.ndarray, residual: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """The Jacobian's column norms and the triangular factor ``T`` of ``[jac, residual]``
+        (None where either is not finite), once at the start for every ridge.
 
-    cost_start = float(residual @ residual)
-    cost = cost_start
-    accepted = rejected = 0
-    damping = 1e-3
-    if stable:
-        while accepted < iterations:
-            augmented = problem.jacobian(theta, yhat, residual)
-            jac = augmented[:, :-1]
-            norms = column_norms(jac)
-            norms[norms == 0] = 1.0
+        ``|jac s - residual| = |T[:, :-1] s - T[:, -1]|``: each damping tried solves a
+        problem of the parameters' size instead of the record's.
+        """
+        at_start = theta is self.theta
+        if at_start and self._linearized is not None:
+            return self._linearized
+        augmented = self.problem.jacobian(theta, yhat, residual)
+        jac = augmented[:, :-1]
+        norms = column_norms(jac)
+        norms[norms == 0] = 1.0
+        finite = bool(np.all(np.isfinite(jac)) and np.all(np.isfinite(residual)))
+        linearized = norms, (tall_factor(augmented) if finite else None)
+        if at_start:
+            self._linearized = linearized
+        return linearized
+
+    def descend(self, ridge: float, iterations: int, tolerance: float) -> RefineResult:
+        """Levenberg-Marquardt steps from the start with this ridge."""
+        problem, theta0, model, data = self.problem, self.theta0, self.model, self.data
+        theta, yhat, residual = self.theta, self.yhat, self.residual
+        scale = None
+        penalty = np.sqrt(ridge)
+
+        def total(res: np.ndarray, th: np.ndarray) -> float:
+            extra = 0.0 if scale is None or ridge == 0 else float(np.sum((penalty * scale * (th - theta0)) ** 2))
+            return float(res @ res) + extra
+
+        cost = cost_start = self.cost
+        accepted = rejected = 0
+        damping = 1e-3
+        while self.stable and accepted < iterations:
+            norms, reduced = self.linearize(theta, yhat, residual)
             if scale is None:
                 scale = norms.copy()
-                if fit_x0:
+                if self.fit_x0:
                     scale[-problem.x0_size :] = 0.0     # x0 is a nuisance parameter: not penalised
-            # |jac s - residual| = |T[:, :-1] s - T[:, -1]| for the triangular factor T
-            # of [jac, residual]: each damping tried below solves a problem of the
-            # parameters' size instead of the record's
-            if not (np.all(np.isfinite(jac)) and np.all(np.isfinite(residual))):
+            if reduced is None:
                 break                           # nothing sound to step along: keep what we have
-            reduced = tall_factor(augmented)
-            del jac, augmented
             improved = False
             while damping < 1e8:
                 # solved for the step in units of each column's norm: the parameters'
@@ -388,7 +389,7 @@ def refine(
                 step = np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)[0] / norms
                 trial = theta + step
                 new_yhat, (A, _, _), _ = problem.simulate(trial)
-                if np.max(np.abs(np.linalg.eigvals(A))) >= max_radius:
+                if np.max(np.abs(np.linalg.eigvals(A))) >= self.max_radius:
                     rejected += 1
                     damping *= 10
                     continue
@@ -404,14 +405,14 @@ def refine(
                 damping *= 10
             if not improved or gain < tolerance:
                 break
-    form_end, x0 = problem.unpack(theta)
-    A, B, C = form_end.matrices()
-    F = form_end.F
-    if accepted == 0:  # nothing accepted: keep the start's matrices bit for bit
-        A, B, C, F = model.A, model.B, model.C, model.D
-    info = dict(model.info)
-    info.update({"refined": True, "refine_iterations": accepted, "refine_ridge": ridge,
-                 "refine_cost_start": cost_start, "refine_cost": cost})
-    refined = model.with_matrices(A, B, C, F, info, model.divisors)
-    return RefineResult(refined, x0 if data.n_segments == 1 else x0.reshape(data.n_segments, -1),
-                        cost_start, cost, accepted, rejected)
+        form_end, x0 = problem.unpack(theta)
+        A, B, C = form_end.matrices()
+        F = form_end.F
+        if accepted == 0:  # nothing accepted: keep the start's matrices bit for bit
+            A, B, C, F = model.A, model.B, model.C, model.D
+        info = dict(model.info)
+        info.update({"refined": True, "refine_iterations": accepted, "refine_ridge": ridge,
+                     "refine_cost_start": cost_start, "refine_cost": cost})
+        refined = model.with_matrices(A, B, C, F, info, model.divisors)
+        return RefineResult(refined, x0 if data.n_segments == 1 else x0.reshape(data.n_segments, -1),
+                            cost_start, cost, accepted, rejected)

@@ -20,7 +20,7 @@ from .estimation import output_regressors, regressor_blocks
 from .row_blocks import WHOLE_ROWS
 from .rows import check_regression_rows, regression_rows, row_breaks, row_count
 from .filters import divisors
-from .refinement import ObserverForm, observer_form
+from .observer_form import ObserverForm, observer_form
 
 __all__ = ["estimate_covariance"]
 
