@@ -250,6 +250,29 @@ def true_scores(case: Case, model: pl.ABCD) -> dict[str, float]:
     return {"true_fit": fit, "h2": h2_norm(*error) / h2_norm(*case.truth)}
 
 
+# Frequencies of the band scores, rad per sample: from near the static gain to close to Nyquist.
+BAND_OMEGA = np.linspace(0.05, 3.0, 30)
+Z95 = 1.959963984540054
+
+
+def band_scores(case: Case, model: moli.StateSpaceModel) -> dict[str, float]:
+    """How the model's 95 % gain bands hold the true gain: the share of (frequency, channel)
+    points inside, and the median over them of |gain error| / predicted standard deviation
+    (NaN where the model carries no covariance)."""
+    if model.cov_factor is None or not model.is_stable():
+        return {"coverage": float("nan"), "bias_sd": float("nan")}
+    omega = BAND_OMEGA / model.Ts
+    truth = np.abs(moli.StateSpaceModel(*case.truth, Ts=model.Ts).frequency_response(omega))
+    estimate = np.abs(model.frequency_response(omega))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        lower, upper = model.magnitude_bands(omega)
+    sd = (upper - estimate) / Z95          # the upper edge is never clipped
+    ratio = np.abs(estimate - truth) / np.where(sd > 0, sd, np.nan)
+    return {"coverage": float(np.mean((lower <= truth) & (truth <= upper))),
+            "bias_sd": float(np.nanmedian(ratio)) if np.any(np.isfinite(ratio)) else float("nan")}
+
+
 def truth_v2(case: Case, half: int) -> float:
     """The true system's own V2 VAF under the protocol (zero state over V1 and V2, noisy
     outputs scored on V2): the most a model can reach there, up to chance."""

@@ -6,7 +6,7 @@ import pytest
 import moli
 from moli.errors import OptionError
 from moli.method.observer_form import observer_form
-from moli.method.refinement import _Problem, refine, refine_each
+from moli.method.refinement import OutputErrorProblem, refine, refine_each
 
 
 def _plant(seed=0):
@@ -110,7 +110,7 @@ def test_unstable_start_is_returned_unchanged():
 def test_analytic_jacobian_matches_finite_differences():
     data = _record(D=np.array([[0.2, 0.0], [0.1, 0.3]]), noise=0.2)
     start = _start(data, feedthrough=True)
-    problem = _Problem(observer_form(start), data.u, data.y, fit_x0=True)
+    problem = OutputErrorProblem(observer_form(start), data.u, data.y, fit_x0=True)
     theta = problem.pack(observer_form(start), np.array([0.3, -0.2, 0.1]))
     yhat, _, _ = problem.simulate(theta)
     augmented = problem.jacobian(theta, yhat, problem.residual(yhat))

@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 import moli
-from moli.method.search import PathStep, StructureSearch, exhaustive, greedy_path, select_order
+from moli.method.order_rules import select_order
+from moli.method.search import PathStep, StructureSearch, exhaustive, greedy_path
 from moli.method.tuning import default_omega
 
 
@@ -145,7 +146,7 @@ def test_paired_order_rule_reaches_the_true_order_on_long_records():
 
 
 def test_paired_order_rule_is_the_best_model_when_nothing_ties():
-    from moli.method.search import select_order_paired
+    from moli.method.order_rules import select_order_paired
 
     est, val = moli.example_data(N=800, seed=3).split(500)
     result = moli.identify(est, val, nmax=6)

@@ -26,7 +26,8 @@ import scipy.linalg
 from ..errors import DataError
 from .row_blocks import fold
 
-__all__ = ["sandwich_factor", "streamed_sandwich_factor", "matrix_directions", "matrix_covariance"]
+__all__ = ["sandwich_factor", "streamed_sandwich_factor", "long_run_covariance",
+           "matrix_directions", "matrix_covariance"]
 
 # A problem whose column-scaled factor has max|r_ii| / min|r_ii| beyond this gets the
 # minimum-norm solution in the estimation (solve_batch): its parameters are not
@@ -144,15 +145,25 @@ def sandwich_factor(
         thetas.append(solution / norms)
         # columns back in theta's units, and rows / (N' - k) in place of rows / N'
         solved.append((r[:k, :k], norms / math.sqrt(rows / (rows - k))))
+    long_run, width = long_run_covariance(stacked, breaks)
+    return _sandwich(long_run, solved, splits), thetas, width
+
+
+def long_run_covariance(scores: np.ndarray, breaks: Sequence[int] = ()) -> tuple[np.ndarray, int]:
+    """Newey-West (Bartlett kernel) long-run covariance of the rows of ``scores``, and its width.
+
+    ``breaks``: the rows where a new segment starts; no lag spans a boundary. The width
+    comes from :func:`_bandwidth`; the sum is that of the moving sums' Gram matrix.
+    """
     # one zero row at each boundary keeps the lag-1 products inside the segments
-    width = _bandwidth(_separated(stacked, breaks, 1), rows)
-    stacked = _separated(stacked, breaks, width - 1)
+    width = _bandwidth(_separated(scores, breaks, 1), scores.shape[0])
+    stacked = _separated(scores, breaks, width - 1)
     total = stacked.shape[0] + width - 1
     meat = np.zeros((stacked.shape[1],) * 2)
     for start in range(0, total, BLOCK_ROWS):
         block = _moving_sums(stacked, width, start, min(start + BLOCK_ROWS, total))
         meat += block.T @ block
-    return _sandwich(meat / width, solved, splits), thetas, width
+    return meat / width, width
 
 
 def _sandwich(long_run: np.ndarray, solved: list[tuple[np.ndarray, np.ndarray]], splits: np.ndarray) -> np.ndarray:

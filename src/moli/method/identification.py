@@ -22,7 +22,8 @@ from .noise_model import estimate_noise_model
 from .options import IdentifyOptions
 from .refinement import MAX_RADIUS
 from .refinement import refine_each
-from .search import PathStep, StructureSearch, greedy_path, select_order, select_order_paired
+from .order_rules import select_order, select_order_paired, select_order_refined, siblings
+from .search import PathStep, StructureSearch, greedy_path
 from .tuning import default_omega
 from .uncertainty import estimate_covariance
 
@@ -273,20 +274,31 @@ def identify(
 
     ridges = opts.refine_ridge if isinstance(opts.refine_ridge, tuple) else (opts.refine_ridge,)
 
+    done: dict[tuple[int, float], PathStep] = {}
+
     def refined(step: PathStep, chosen: tuple[float, ...] = ridges[:1]) -> list[PathStep]:
-        """The step refined with each ridge, from its model; each counts the time of all."""
-        started = time.perf_counter()
-        models = [result.model for result in refine_each(step.model, searched, chosen, max_radius=bound,
-                                                         iterations=opts.refine_iterations)]
-        vafs = [compare(model, scored, opts.x0).vaf for model in models]
-        seconds = step.seconds + time.perf_counter() - started
-        return [replace(step, model=model, vaf=vaf, seconds=seconds) for model, vaf in zip(models, vafs)]
+        """The step refined with each ridge, from its model; each counts the time of all.
+        A model refined with a ridge before (the order rule's walk) is not refined again."""
+        todo = tuple(r for r in chosen if (id(step.model), r) not in done)
+        if todo:
+            started = time.perf_counter()
+            models = [result.model for result in refine_each(step.model, searched, todo, max_radius=bound,
+                                                             iterations=opts.refine_iterations)]
+            vafs = [compare(model, scored, opts.x0).vaf for model in models]
+            seconds = step.seconds + time.perf_counter() - started
+            for ridge, model, vaf in zip(todo, models, vafs):
+                done[id(step.model), ridge] = replace(step, model=model, vaf=vaf, seconds=seconds)
+        return [done[id(step.model), r] for r in chosen]
 
     unrefined = list(path)
     if opts.refine == "path" and not interrupted:
         path[:] = [refined(st)[0] for st in path]
     selected = _fixed_order(path, opts.order, interrupted)
-    if selected is None and opts.order_rule == "paired":
+    if selected is None and opts.order_rule == "refined" and not interrupted:
+        selected, chosen = select_order_refined(path, lambda i: [path[i], *siblings(search, path, i)],
+                                                refined, scored, opts.x0)
+        path[selected] = unrefined[selected] = chosen
+    elif selected is None and opts.order_rule in ("paired", "refined"):
         selected = select_order_paired(path, scored, opts.x0)
     elif selected is None:
         selected = select_order(path, opts.order_tolerance)
@@ -299,13 +311,21 @@ def identify(
     if opts.refine == "selected":
         path[selected] = refined(path[selected])[0]
     elif opts.refine == "guarded":
-        # each ridge from the unrefined model; the best on validation stays
-        for candidate in refined(path[selected], ridges):
+        # each ridge from the unrefined model, and the free refinement of each other list
+        # the greedy step compared at this order (docs/method.md §12): the best on validation stays
+        candidates = refined(path[selected], ridges)
+        if not interrupted:
+            for sibling in siblings(search, path, selected):
+                candidates += refined(sibling, ridges[:1])
+        for candidate in candidates:
             if candidate.mean_vaf > path[selected].mean_vaf:
                 path[selected] = candidate
-    # covariance (whole record) and noise model (search window) of the delay-free model, on the shifted record
-    path[selected] = replace(path[selected], model=_attached(estimate_covariance, "covariance",
-                                                             path[selected].model, fitted))
+    # covariance (of the problem that gave the model: a refined one's on the search window, the
+    # least squares' on the whole record) and noise model (search window) of the delay-free
+    # model, on the shifted record
+    kept = path[selected].model
+    path[selected] = replace(path[selected], model=_attached(
+        estimate_covariance, "covariance", kept, searched if kept.info.get("refined") else fitted))
     if opts.noise_model:
         path[selected] = replace(path[selected], model=_attached(estimate_noise_model, "noise_model",
                                                                  path[selected].model, searched))

@@ -28,7 +28,7 @@ REFINE_CHOICES = ("none", "selected", "path", "guarded")
 # What the earlier presets share and the default no longer does (chosen on the
 # evaporator windows; docs/accuracy.md shows what they cost elsewhere).
 EVAPORATOR_CHOICES = {"order_tolerance": 1.0, "filter_grid": "paper", "refine": "none", "refine_ridge": 1.0}
-ORDER_RULES = ("tolerance", "paired")
+ORDER_RULES = ("tolerance", "paired", "refined")
 PRESETS = ("default", "improved", "bounded", "paper")
 # Shortest search window: a few hundred samples still rank the filters and lists of
 # small plants; below that a window says too little about the record.
@@ -136,7 +136,7 @@ class IdentifyOptions:
         How the order is picked on the validation record: the lowest order within
         ``order_tolerance`` points of the best mean VAF, or the lowest order whose
         validation error is within one paired standard error of the best model's
-        (:func:`moli.method.search.select_order_paired`).
+        (:func:`moli.method.order_rules.select_order_paired`).
     order : int, optional
         A fixed order: the path runs up to it (or to ``nmax``) and the model of this
         order is selected instead of applying the order rule; at least ``p``, at most

@@ -101,7 +101,7 @@ def _sensitivities(
     return free, responses()
 
 
-class _Problem:
+class OutputErrorProblem:
     """Residuals and Jacobian of the output-error criterion in observer-form parameters."""
 
     def __init__(
@@ -319,7 +319,7 @@ class _Start:
         # a model with input delays is refined on the inputs as its simulation shifts them
         # each segment from its own initial state, its inputs shifted within it
         u = np.concatenate([shift_inputs(data.u[a:b], model.input_delays) for a, b in data.bounds])
-        problem = self.problem = _Problem(form, u, data.y, fit_x0, data.segment_starts)
+        problem = self.problem = OutputErrorProblem(form, u, data.y, fit_x0, data.segment_starts)
         self.theta0 = problem.pack(form, np.zeros(problem.x0_size))
         theta = self.theta0.copy()
         yhat, _, _ = problem.simulate(theta)

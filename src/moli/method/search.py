@@ -1,4 +1,4 @@
-"""Structure selection: greedy path of lists of indices, exhaustive search, order rule."""
+"""Structure search: the greedy path of lists of indices, and the exhaustive search."""
 
 from __future__ import annotations
 
@@ -19,13 +19,7 @@ from .scoring import FilterScorer
 from .tuning import tune_filters
 from ..validation.comparison import compare
 
-__all__ = ["PathStep", "StructureSearch", "greedy_path", "exhaustive", "select_order", "select_order_paired"]
-
-
-# Batches of the paired order rule: enough for a standard error, each long enough
-# (tens of samples on short records) to hold the errors' serial correlation.
-PAIRED_BATCHES = 10
-PAIRED_Z = 1.0
+__all__ = ["PathStep", "StructureSearch", "greedy_path", "exhaustive"]
 
 
 @dataclass
@@ -254,84 +248,3 @@ def greedy_path(
 def exhaustive(search: StructureSearch, order: int) -> list[PathStep]:
     """Fit every list of indices of the given McMillan degree (``C(n-1, p-1)`` lists)."""
     return search.fit_many([c for c in compositions(order, search.estimation.p) if search.feasible(c)])
-
-
-def select_order(path: list[PathStep], tolerance: float = 1.0) -> int:
-    """Position in ``path`` of the lowest order within ``tolerance`` points of the best.
-
-    Only stable models are eligible when the path has any.
-
-    Parameters
-    ----------
-    path : list of PathStep
-    tolerance : float, default 1.0
-        Percentage points of mean validation VAF.
-
-    Returns
-    -------
-    int
-    """
-    eligible = [i for i, st in enumerate(path) if st.stable] or list(range(len(path)))
-    best = max(path[i].mean_vaf for i in eligible)
-    return min(i for i in eligible if path[i].mean_vaf >= best - tolerance)
-
-
-def select_order_paired(path: list[PathStep], validation: IOData, x0: str = "zero",
-                        z: float = PAIRED_Z) -> int:
-    """Position in ``path`` of the lowest order not significantly worse than the best.
-
-    The one-standard-error rule on the validation record: each model's mean VAF
-    differs from the best model's by a sum over samples of squared-error differences
-    (same samples, so the comparison is paired); its standard error comes from
-    :data:`PAIRED_BATCHES` contiguous batch sums, which keeps the serial correlation of
-    simulation errors. The lowest order within ``z`` standard errors of the best is
-    kept. Long records shrink the standard error, so the rule keeps more of the
-    accuracy there; short ones favour the simpler model. Only stable models are
-    eligible when the path has any.
-
-    Parameters
-    ----------
-    path : list of PathStep
-    validation : IOData
-        The record the path's VAFs were computed on (centred like the models).
-    x0 : {"zero", "estimate"}
-        Initial state of the validation simulations.
-    z : float, default 1.0
-        Standard errors of tolerance.
-
-    Returns
-    -------
-    int
-    """
-    eligible = [i for i, st in enumerate(path) if st.stable] or list(range(len(path)))
-    best = max(eligible, key=lambda i: path[i].mean_vaf)
-    reference = _error_shares(path[best].model, validation, x0)
-    for i in sorted(eligible, key=lambda i: path[i].order):
-        if i == best:
-            return i
-        worse, spread = _paired_difference(_error_shares(path[i].model, validation, x0), reference)
-        if np.isfinite(worse) and worse <= z * spread:
-            return i
-    return best
-
-
-def _error_shares(model: StateSpaceModel, validation: IOData, x0: str = "zero") -> np.ndarray:
-    """Each sample's squared simulation error, in points: summed over the samples, the mean
-    over the outputs of ``100 |e_j|^2 / |y_j - mean(y_j)|^2``; inf where the simulation diverges."""
-    y = validation.y
-    scale = 100.0 / (y.shape[1] * np.maximum(np.sum((y - y.mean(axis=0)) ** 2, axis=0), 1e-300))
-    error = y - compare(model, validation, x0).yhat
-    return np.nan_to_num((error**2) @ scale, nan=np.inf, posinf=np.inf)
-
-
-def _paired_difference(shares: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
-    """Points of mean VAF by which ``shares`` lose to ``reference``, and its standard error.
-
-    The error comes from :data:`PAIRED_BATCHES` contiguous batch sums of the per-sample
-    differences, which keeps the serial correlation of simulation errors.
-    """
-    batches = np.array_split(np.arange(shares.size), min(PAIRED_BATCHES, shares.size))
-    sums = np.array([np.sum(shares[b] - reference[b]) for b in batches])
-    worse = float(sums.sum())
-    spread = float(np.sqrt(len(sums) / max(len(sums) - 1, 1) * np.sum((sums - worse / len(sums)) ** 2)))
-    return worse, spread

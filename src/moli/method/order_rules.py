@@ -1,0 +1,182 @@
+"""Order rules: which model of the greedy path is selected.
+
+- :func:`select_order`: the lowest order within a tolerance of the best mean validation VAF;
+- :func:`select_order_paired`: the lowest order whose validation error is within one paired
+  standard error of the best model's (docs/method.md §5);
+- :func:`select_order_refined`: the same test, each order judged by the best refinement of
+  the lists the greedy step compared there (docs/method.md §5b).
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from ..data.iodata import IOData
+from ..models.statespace import StateSpaceModel
+from ..validation.comparison import compare
+from .search import PathStep, StructureSearch
+from .structure import raised
+
+__all__ = ["select_order", "select_order_paired", "select_order_refined", "siblings"]
+
+# Batches of the paired order rule: enough for a standard error, each long enough
+# (tens of samples on short records) to hold the errors' serial correlation.
+PAIRED_BATCHES = 10
+PAIRED_Z = 1.0
+
+
+def select_order(path: list[PathStep], tolerance: float = 1.0) -> int:
+    """Position in ``path`` of the lowest order within ``tolerance`` points of the best.
+
+    Only stable models are eligible when the path has any.
+
+    Parameters
+    ----------
+    path : list of PathStep
+    tolerance : float, default 1.0
+        Percentage points of mean validation VAF.
+
+    Returns
+    -------
+    int
+    """
+    eligible = [i for i, st in enumerate(path) if st.stable] or list(range(len(path)))
+    best = max(path[i].mean_vaf for i in eligible)
+    return min(i for i in eligible if path[i].mean_vaf >= best - tolerance)
+
+
+def select_order_paired(path: list[PathStep], validation: IOData, x0: str = "zero",
+                        z: float = PAIRED_Z) -> int:
+    """Position in ``path`` of the lowest order not significantly worse than the best.
+
+    The one-standard-error rule on the validation record: each model's mean VAF
+    differs from the best model's by a sum over samples of squared-error differences
+    (same samples, so the comparison is paired); its standard error comes from
+    :data:`PAIRED_BATCHES` contiguous batch sums, which keeps the serial correlation of
+    simulation errors. The lowest order within ``z`` standard errors of the best is
+    kept. Long records shrink the standard error, so the rule keeps more of the
+    accuracy there; short ones favour the simpler model. Only stable models are
+    eligible when the path has any.
+
+    Parameters
+    ----------
+    path : list of PathStep
+    validation : IOData
+        The record the path's VAFs were computed on (centred like the models).
+    x0 : {"zero", "estimate"}
+        Initial state of the validation simulations.
+    z : float, default 1.0
+        Standard errors of tolerance.
+
+    Returns
+    -------
+    int
+    """
+    eligible = [i for i, st in enumerate(path) if st.stable] or list(range(len(path)))
+    best = max(eligible, key=lambda i: path[i].mean_vaf)
+    reference = _error_shares(path[best].model, validation, x0)
+    for i in sorted(eligible, key=lambda i: path[i].order):
+        if i == best:
+            return i
+        worse, spread = _paired_difference(_error_shares(path[i].model, validation, x0), reference)
+        if np.isfinite(worse) and worse <= z * spread:
+            return i
+    return best
+
+
+def select_order_refined(
+    path: list[PathStep], lists_at: Callable[[int], list[PathStep]],
+    refine: Callable[[PathStep], list[PathStep]], validation: IOData, x0: str = "zero",
+    z: float = PAIRED_Z,
+) -> tuple[int, PathStep]:
+    """The lowest order whose best refined list is not significantly worse than the best model.
+
+    The least-squares models of the path are biased under output noise, each by its
+    own amount, and a higher order buys back part of that bias: judged by their own
+    validation errors, the orders run up to the best one. Here each order, from the
+    lowest, is judged by the best of its lists' least-squares models and their
+    refinements (consistent under output noise, docs/method.md §12), and the paired test
+    of :func:`select_order_paired` compares it with the best least-squares model of the
+    path, on the same validation samples. The first order that passes is kept; none
+    passes before the best model's own order, which is then kept.
+
+    Parameters
+    ----------
+    path : list of PathStep
+        The greedy path, one step per order, validated.
+    lists_at : callable
+        ``lists_at(i)``: the validated steps of the lists compared at ``path[i]``'s order
+        (``path[i]`` first).
+    refine : callable
+        ``refine(step)``: the refined steps of one step (validated).
+    validation : IOData
+        The record the path's VAFs were computed on (centred like the models).
+    x0 : {"zero", "estimate"}
+        Initial state of the validation simulations.
+    z : float, default 1.0
+        Standard errors of tolerance.
+
+    Returns
+    -------
+    position : int
+        Position of the selected order in ``path``.
+    step : PathStep
+        The least-squares step of the list whose model, or one of its refinements, was
+        best at that order.
+    """
+    eligible = [i for i, st in enumerate(path) if st.stable] or list(range(len(path)))
+    best = max(eligible, key=lambda i: path[i].mean_vaf)
+    reference = _error_shares(path[best].model, validation, x0)
+    for i in range(best + 1):
+        pool = [(candidate, step) for step in lists_at(i) for candidate in (step, *refine(step))
+                if candidate.stable]
+        if not pool:
+            continue
+        candidate, step = max(pool, key=lambda pair: pair[0].mean_vaf)
+        if i == best:
+            return i, step
+        worse, spread = _paired_difference(_error_shares(candidate.model, validation, x0), reference)
+        if np.isfinite(worse) and worse <= z * spread:
+            return i, step
+    return best, path[best]
+
+
+def siblings(search: StructureSearch, path: list[PathStep], selected: int) -> list[PathStep]:
+    """The other lists of the selected order that the greedy step from the order below
+    compared, fitted and validated.
+
+    The greedy step ranks them by J, the simulation error of their least-squares
+    models; under output noise those models are biased, each list by its own amount, so
+    the list J ranks first is not always the one the plant's structure needs (a 2x2
+    plant of indices (2, 2) reached as (1, 3)). Their refinements are compared on
+    validation instead.
+    """
+    if selected == 0:
+        return []
+    chosen = path[selected].indices
+    lists = [c for c in raised(path[selected - 1].indices) if c != chosen and search.feasible(c)]
+    return search.fit_many(lists)
+
+
+def _error_shares(model: StateSpaceModel, validation: IOData, x0: str = "zero") -> np.ndarray:
+    """Each sample's squared simulation error, in points: summed over the samples, the mean
+    over the outputs of ``100 |e_j|^2 / |y_j - mean(y_j)|^2``; inf where the simulation diverges."""
+    y = validation.y
+    scale = 100.0 / (y.shape[1] * np.maximum(np.sum((y - y.mean(axis=0)) ** 2, axis=0), 1e-300))
+    error = y - compare(model, validation, x0).yhat
+    return np.nan_to_num((error**2) @ scale, nan=np.inf, posinf=np.inf)
+
+
+def _paired_difference(shares: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
+    """Points of mean VAF by which ``shares`` lose to ``reference``, and its standard error.
+
+    The error comes from :data:`PAIRED_BATCHES` contiguous batch sums of the per-sample
+    differences, which keeps the serial correlation of simulation errors.
+    """
+    batches = np.array_split(np.arange(shares.size), min(PAIRED_BATCHES, shares.size))
+    sums = np.array([np.sum(shares[b] - reference[b]) for b in batches])
+    worse = float(sums.sum())
+    spread = float(np.sqrt(len(sums) / max(len(sums) - 1, 1) * np.sum((sums - worse / len(sums)) ** 2)))
+    return worse, spread
