@@ -92,8 +92,11 @@ class IdentificationResult:
         opts = self.options
         if opts.order is not None and self.selected.order == opts.order:
             return f"the fixed order n = {opts.order} (IdentifyOptions.order)"
-        if opts.order_rule == "paired":
+        if opts.order_rule == "paired" or (opts.order_rule == "refined" and self.interrupted):
             return "lowest order within one paired standard error of the best validation error"
+        if opts.order_rule == "refined":
+            return ("lowest order whose best refined list is within one paired standard error of the "
+                    "best validation error")
         return f"lowest order within {opts.order_tolerance:g} point of the best mean validation VAF"
 
     def summary(self) -> str:

@@ -132,11 +132,14 @@ class IdentifyOptions:
     ----------
     nmax : int, optional
         Largest McMillan degree on the greedy path; None: ``max(10, p + 4)``.
-    order_rule : {"tolerance", "paired"}, default "tolerance"
+    order_rule : {"tolerance", "paired", "refined"}, default "tolerance"
         How the order is picked on the validation record: the lowest order within
-        ``order_tolerance`` points of the best mean VAF, or the lowest order whose
+        ``order_tolerance`` points of the best mean VAF; the lowest order whose
         validation error is within one paired standard error of the best model's
-        (:func:`moli.method.order_rules.select_order_paired`).
+        (:func:`moli.method.order_rules.select_order_paired`); or the same test with each
+        order judged by the best refinement of the lists the greedy step compared there
+        (:func:`moli.method.order_rules.select_order_refined`, docs/method.md §5; the
+        refinements judge the orders whatever ``refine`` does with the selected model).
     order : int, optional
         A fixed order: the path runs up to it (or to ``nmax``) and the model of this
         order is selected instead of applying the order rule; at least ``p``, at most
