@@ -113,8 +113,8 @@ def _reading_options(command: Callable[..., Any]) -> Callable[..., Any]:
                      "[default: detected]."),
         click.option("--sheet", help="Sheet of an .xlsx workbook: its name or 0-based position "
                      "[default: the first]."),
-        click.option("--time-column", help="Column of time stamps [default: the first named time, "
-                     "t, timestamp, date or datetime]."),
+        click.option("--time-column", help="Column of time stamps [default: found by its name "
+                     "(time, Time [s], Zeit...) or content, docs/data.md]."),
         click.option("--time-format", help="strftime format of date-times that are not ISO 8601, "
                      "e.g. '%d/%m/%Y %H:%M:%S'."),
         click.option("--no-time-column", is_flag=True, help="Ignore time columns."),

@@ -302,7 +302,8 @@ def from_columns(
     inputs, outputs : sequence of str
         Names of the input and output columns, in channel order.
     Ts : float, optional
-        Sampling period; default: the median step of the time column, else 1.0.
+        Sampling period; default: a period or rate column, else the median step of the
+        time column, else 1.0 (a :class:`~moli.errors.SamplingPeriodWarning` says which).
     source : str
         What to call the table in error messages.
     time_column, time_format, time_tolerance
@@ -365,8 +366,9 @@ def from_dataframe(
     inputs, outputs : sequence of str
         Column names of the channels.
     Ts : float, optional
-        Sampling period; default: the median step of a time column or a named index
-        (seconds for date-times), else 1.0.
+        Sampling period; default: a period or rate column, else the median step of a time
+        column or a named index (seconds for date-times), else 1.0 (a
+        :class:`~moli.errors.SamplingPeriodWarning` says which).
     time_column, time_format, time_tolerance
         As for :func:`moli.read_data`.
 
