@@ -94,9 +94,10 @@ class ClosedLoopWarning(UserWarning):
 class SamplingPeriodWarning(UserWarning):
     """Says where a reader took the sampling period from, when the caller did not give it.
 
-    A time or period column the reader found (its name, how it was found), or that no
-    time was found and ``Ts = 1`` is assumed, with how to set it. Giving ``Ts=`` (or
-    the time column by name) silences it.
+    A period column, or a time column found by a name that looks like time or as the
+    first column (how it was found), or that no time was found and ``Ts = 1`` is
+    assumed, with how to set it. Not given for a column named ``time``, ``t``,
+    ``timestamp``, ``date`` or ``datetime``; giving ``Ts=`` or the time column silences it.
     """
 
 

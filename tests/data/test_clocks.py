@@ -32,7 +32,7 @@ def write(path, table: dict) -> None:
     pd.DataFrame(table).to_csv(path, index=False)
 
 
-@pytest.mark.parametrize("name", ["Time [s]", "time_s", "Zeit", "t", "Elapsed Time (ms)", "TimeStamp"])
+@pytest.mark.parametrize("name", ["Time [s]", "time_s", "Zeit", "Elapsed Time (ms)", "TimeSec"])
 def test_a_numeric_time_column_is_found_under_common_names(tmp_path, name):
     write(tmp_path / "rec.csv", {"u": U, name: 0.05 * np.arange(N), "y": Y})
     data, said = notices(lambda: read_data(tmp_path / "rec.csv", ["u"], ["y"]))
@@ -108,10 +108,14 @@ def test_no_time_says_that_ts_1_is_assumed_and_how_to_set_it():
     assert said == ["the table: no time column and no sampling period found; Ts = 1 is assumed "
                     "(one time unit per sample): set it with Ts= in Python or --ts on the command "
                     "line, or name the time column with time_column= (--time-column)"]
-    # stating the period, or naming the time column, is not noticed
+    # stating the period, naming the time column, or a column under a standard name
+    # (time, t, timestamp, date, datetime) is what the caller or the file plainly says
     assert notices(lambda: from_columns({"u": U, "y": Y}, ["u"], ["y"], Ts=0.5))[1] == []
     named = {"clock": np.arange(N) * 0.5, "u": U, "y": Y}
     assert notices(lambda: from_columns(named, ["u"], ["y"], time_column="clock"))[1] == []
+    plain = {"t": np.arange(N) * 0.5, "u": U, "y": Y}
+    data, said = notices(lambda: from_columns(plain, ["u"], ["y"]))
+    assert data.Ts == 0.5 and said == []
 
 
 def test_the_command_line_prints_where_ts_came_from(tmp_path):

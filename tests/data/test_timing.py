@@ -8,7 +8,7 @@ from datetime import datetime, timedelta, timezone
 import numpy as np
 import pytest
 
-from moli import DataError, IrregularSamplingWarning, SamplingPeriodWarning, read_data
+from moli import DataError, IrregularSamplingWarning, read_data
 from moli.data import SamplingGap, find_gaps, from_columns
 
 N = 40
@@ -26,11 +26,9 @@ def iso(start: datetime, seconds) -> list[str]:
 
 
 def strictly(call):
-    """Run ``call`` with every warning an error but the notice of where Ts came from:
-    proves that no other is given."""
+    """Run ``call`` with every warning an error: proves that none is given."""
     with warnings.catch_warnings():
         warnings.simplefilter("error")
-        warnings.simplefilter("ignore", SamplingPeriodWarning)
         return call()
 
 

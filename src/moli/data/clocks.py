@@ -66,8 +66,9 @@ PERIOD_AGREEMENT = 1e-9
 class Clock:
     """What :func:`find_clock` found.
 
-    ``time``: the time column, or None; ``how``: how it was found ("named", "by its
-    name", "as the first column"); ``period``: ``(column, Ts, note)`` from a period or
+    ``time``: the time column, or None; ``how``: how it was found ("named" by the
+    caller, "standard" for the names of rule 1, "by its name" for rule 2, "as the first
+    column ..." for rule 3); ``period``: ``(column, Ts, note)`` from a period or
     rate column, or None; ``passed``: candidates passed over, each with its reason.
     """
 
@@ -184,7 +185,7 @@ def find_clock(
     free = [name for name in names if name in columns and name not in taken]
     exact = next((name for name in free if name.strip().lower() in TIME_COLUMNS), None)
     if exact is not None:
-        return Clock(exact, "by its name", period, tuple(passed))
+        return Clock(exact, "standard", period, tuple(passed))
     for name in filter(looks_like_time, free):
         times = _times(np.asarray(columns[name]).ravel(), decimal, time_format)
         if times is not None and _increasing(times[0]):
@@ -223,16 +224,18 @@ def stated_period(given: float | None, stored: float | None, clock: Clock, sourc
 
 
 def period_notice(source: str, clock: Clock, Ts: float, unit: str) -> SamplingPeriodWarning | None:
-    """Where a period the caller did not give came from: a column found, or Ts = 1 assumed.
+    """Where a period the caller did not give came from, when moli had to choose it: a
+    period column, a time column found by rules 2 or 3, or Ts = 1 assumed.
 
-    None for a time column the caller named: its period is what the caller asked for.
+    None for a time column the caller named or one of the standard names (``time``,
+    ``t``...): its period is what the file plainly says.
     """
     state = "; give Ts= (--ts) to state it"
     if clock.period is not None:
         agrees = f"; the time column {clock.time!r} agrees" if clock.time else ""
         return SamplingPeriodWarning(f"{source}: Ts = {Ts:g} from {clock.period[2]}{agrees}{state}")
     if clock.time is not None:
-        if clock.how == "named":
+        if clock.how in ("named", "standard"):
             return None
         return SamplingPeriodWarning(
             f"{source}: Ts = {Ts:g}{unit} from the time column {clock.time!r} (found "
