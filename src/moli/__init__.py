@@ -20,7 +20,7 @@ from ._version import __version__
 from .errors import (
     ClosedLoopWarning, DataError, DataQualityWarning, FilterError, IllConditionedWarning,
     IrregularSamplingWarning, ModelFileError, MoliError, OptionError, OrderBoundWarning,
-    StructureError, UnstableModelWarning,
+    SamplingPeriodWarning, StructureError, UnstableModelWarning,
 )
 
 # public name -> the subpackage that defines it
@@ -49,7 +49,7 @@ _SUBPACKAGES = ("data", "models", "validation", "method", "streaming", "systems"
 __all__ = [
     "__version__", "MoliError", "DataError", "FilterError", "IllConditionedWarning",
     "ModelFileError", "OptionError", "StructureError", "UnstableModelWarning", "DataQualityWarning",
-    "OrderBoundWarning", "ClosedLoopWarning", "IrregularSamplingWarning",
+    "OrderBoundWarning", "ClosedLoopWarning", "IrregularSamplingWarning", "SamplingPeriodWarning",
     *_HOMES, *_SUBPACKAGES,
 ]
 

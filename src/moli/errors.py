@@ -14,7 +14,7 @@ __all__ = [
     "MoliError", "DataError", "StructureError", "FilterError", "OptionError", "ModelFileError",
     "ControlDesignError", "wrong_type",
     "UnstableModelWarning", "IllConditionedWarning", "DataQualityWarning", "OrderBoundWarning",
-    "ClosedLoopWarning", "IrregularSamplingWarning",
+    "ClosedLoopWarning", "IrregularSamplingWarning", "SamplingPeriodWarning",
 ]
 
 
@@ -89,6 +89,16 @@ class OrderBoundWarning(UserWarning):
 
 class ClosedLoopWarning(UserWarning):
     """The estimation data look closed-loop: an input depends on past outputs."""
+
+
+class SamplingPeriodWarning(UserWarning):
+    """Says where a reader took the sampling period from, when the caller did not give it.
+
+    A period column, or a time column found by a name that looks like time or as the
+    first column (how it was found), or that no time was found and ``Ts = 1`` is
+    assumed, with how to set it. Not given for a column named ``time``, ``t``,
+    ``timestamp``, ``date`` or ``datetime``; giving ``Ts=`` or the time column silences it.
+    """
 
 
 class IrregularSamplingWarning(UserWarning):

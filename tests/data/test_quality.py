@@ -45,6 +45,30 @@ def test_a_constant_input_is_an_error_that_names_it():
         moli.identify(data, nmax=4)
 
 
+def test_a_level_with_round_off_jitter_is_constant_though_identify_centres_it():
+    u = prbs(400, 3)
+    # 1e-9 of jitter on a level of 20: 5e-11 of the level, a constant plus round-off;
+    # centred (as identify screens it) the jitter alone is left, its level in the offset
+    u[:, 0] = 20.0 + 1e-9 * np.random.default_rng(2).standard_normal(400)
+    data = record(u)
+    assert kinds(data.remove_means()) == [("constant", ("u1",))]
+    with pytest.raises(DataError, match="input 'u1' is constant"):
+        moli.identify(data, nmax=4)
+
+
+def test_a_nearly_constant_input_warns_and_a_small_one_does_not():
+    u = prbs(400, 3)
+    clean = record(u)
+    u[:, 1] = 20.0 + 20.0 * 3e-7 * prbs(400, 1, seed=3)[:, 0]   # 3e-7 of its level
+    data = moli.IOData(clean.y, u)    # the outputs of the clean record: only u2 changes
+    assert kinds(data) == [("nearly-constant", ("u2",))]
+    with pytest.warns(DataQualityWarning, match=r"input 'u2' is nearly constant: its standard "
+                      r"deviation is 3.0e-07 of its level"):
+        moli.identify(*data.split(0.7), nmax=4)
+    # small about zero is a scale, not a flaw: 1e-7 of amplitude moves by its whole level
+    assert kinds(record(1e-7 * prbs(400, 3))) == []
+
+
 def test_a_duplicate_input_is_flagged_and_still_gives_a_finite_model():
     u = prbs(500, 3)
     u[:, 2] = u[:, 0]

@@ -96,17 +96,30 @@ def test_tustin_warps_frequency_exactly():
     np.testing.assert_allclose(continuous.input_delays, [0.0, 2 * Ts])
 
 
+def test_a_refusal_names_every_pole_and_each_way_forward():
+    model = moli.StateSpaceModel(np.diag([0.9, -0.5, -0.25]), np.ones((3, 1)), np.ones((1, 3)))
+    with pytest.raises(moli.DataError) as refused:
+        model.to_continuous()
+    message = str(refused.value)
+    assert "z = -0.5, z = -0.25. Options:" in message        # both poles, not the one at 0.9
+    for way in ("(1) method='tustin'", "(2) keep the discrete model", "(3) identify from data "
+                "sampled faster", "lower order"):
+        assert way in message
+    assert model.to_continuous("tustin").is_stable()        # the first way works
+
+
 def test_poles_without_a_real_logarithm_are_refused_with_alternatives():
     negative = moli.StateSpaceModel(np.diag([0.5, -0.4]), np.ones((2, 1)), np.ones((1, 2)))
-    with pytest.raises(moli.DataError, match="negative real axis.*tustin.*resample"):
+    with pytest.raises(moli.DataError, match="negative real axis.*tustin.*sampled faster"):
         negative.to_continuous()
     assert negative.to_continuous("tustin").is_stable()      # Tustin maps -0.4 inside
     at_zero = moli.StateSpaceModel(np.diag([0.5, 0.0]), np.ones((2, 1)), np.ones((1, 2)))
     with pytest.raises(moli.DataError, match="z = 0.*tustin"):
         at_zero.to_continuous()
     at_minus_one = moli.StateSpaceModel([[-1.0]], [[1.0]], [[1.0]])
-    with pytest.raises(moli.DataError, match="z = -1.*zoh"):
+    with pytest.raises(moli.DataError, match="z = -1.*no zero-order hold") as refused:
         at_minus_one.to_continuous("tustin")
+    assert "method='tustin'" not in str(refused.value).split("Options")[1]   # it fails too
     with pytest.raises(moli.OptionError, match="method"):
         negative.to_continuous("euler")
     with pytest.raises(moli.OptionError, match="method"):

@@ -143,3 +143,37 @@ def test_shift_inputs_leaves_its_argument_alone():
     before = u.copy()
     np.testing.assert_array_equal(shift_inputs(u, (5, 1)), [[0, 0], [0, 1], [0, 3]])
     np.testing.assert_array_equal(u, before)
+
+
+def test_a_response_that_starts_small_has_no_dead_time():
+    # y2 answers u1 with 0.04, 0.12, 0.13, ... (every delay of the plant is 0), weakly
+    # beside u2 and u3: no single coefficient stands out, all of them together do
+    found = moli.estimate_delays(moli.example_data())
+    assert not np.ma.is_masked(found)
+    np.testing.assert_array_equal(found, np.zeros((3, 3), dtype=int))
+
+
+def test_a_small_first_coefficient_keeps_its_delay():
+    # impulse response 0, 0.05, 1, 0.7, 0.49, ... delayed by 4 samples: the response
+    # starts at 5 % of its peak, measured well enough to be told from zero
+    plant = moli.StateSpaceModel([[0.7, 1.0], [0.0, 0.0]], [[0.0], [1.0]], [[1.0, 0.05]])
+    rng = np.random.default_rng(5)
+    u = rng.standard_normal(1000)
+    y = plant.with_input_delays([4]).simulate(u)
+    y += 0.01 * y.std() * rng.standard_normal(y.shape)
+    np.testing.assert_array_equal(moli.estimate_delays(moli.IOData(y, u)), [[4]])
+
+
+def test_a_pair_without_response_is_masked_and_named():
+    rng = np.random.default_rng(4)
+    # two decoupled first-order loops: u2 does not move y1, nor u1 y2
+    plant = moli.StateSpaceModel(np.diag([0.8, 0.6]), np.eye(2), np.eye(2)).with_input_delays([2, 4])
+    u = rng.standard_normal((600, 2))
+    y = plant.simulate(u) + 0.05 * rng.standard_normal((600, 2))
+    data = moli.IOData(y, u)
+    with pytest.warns(moli.DataQualityWarning, match=r"no response found from u2 -> y1, u1 -> y2"):
+        found = moli.estimate_delays(data, max_delay=8)
+    np.testing.assert_array_equal(found.mask, [[False, True], [True, False]])
+    assert found[0, 0] == 2 and found[1, 1] == 4
+    # identify takes each input's delay from the pairs that respond
+    assert moli.identify(data, nmax=3, delays="auto").model.input_delays == (2, 4)

@@ -23,7 +23,7 @@ from ..data.daisy import daisy_path, load_daisy
 from ..data.files import file_sha256, fingerprint, read_data
 from ..data.iodata import IOData
 from ..data.outliers import flag_outliers, remove_outliers
-from ..errors import DataError, IrregularSamplingWarning, MoliError, OptionError
+from ..errors import DataError, IrregularSamplingWarning, MoliError, OptionError, SamplingPeriodWarning
 from ..method.identification import IdentificationResult, identify
 from ..method.options import PRESETS, IdentifyOptions
 from ..method.search import PathStep, StructureSearch, exhaustive
@@ -113,8 +113,8 @@ def _reading_options(command: Callable[..., Any]) -> Callable[..., Any]:
                      "[default: detected]."),
         click.option("--sheet", help="Sheet of an .xlsx workbook: its name or 0-based position "
                      "[default: the first]."),
-        click.option("--time-column", help="Column of time stamps [default: the first named time, "
-                     "t, timestamp, date or datetime]."),
+        click.option("--time-column", help="Column of time stamps [default: found by its name "
+                     "(time, Time [s], Zeit...) or content, docs/data.md]."),
         click.option("--time-format", help="strftime format of date-times that are not ISO 8601, "
                      "e.g. '%d/%m/%Y %H:%M:%S'."),
         click.option("--no-time-column", is_flag=True, help="Ignore time columns."),
@@ -126,16 +126,19 @@ def _reading_options(command: Callable[..., Any]) -> Callable[..., Any]:
 
 def _read(path: Path, inputs: list[str] | None, outputs: list[str] | None, ts: float | None,
           reading: dict[str, Any]) -> IOData:
-    """read_data with the reading flags; irregular time steps become warning lines."""
+    """read_data with the reading flags; irregular time steps and where Ts came from become
+    warning lines."""
     reading = dict(reading)
     if reading.pop("no_time_column"):
         if reading["time_column"] is not None:
             raise OptionError("give --time-column NAME or --no-time-column, not both")
         reading["time_column"] = False
     with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always", IrregularSamplingWarning)
+        read = (IrregularSamplingWarning, SamplingPeriodWarning)
+        for category in read:
+            warnings.simplefilter("always", category)
         data = read_data(path, inputs, outputs, ts, **reading)
-    _echo_warnings([w for w in caught if issubclass(w.category, IrregularSamplingWarning)])
+    _echo_warnings([w for w in caught if issubclass(w.category, read)])
     return data
 
 

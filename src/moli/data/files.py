@@ -68,8 +68,10 @@ def read_data(
         or ``.mat`` files (channels ``u1, ...`` and ``y1, ...``) or a MATLAB iddata struct.
     Ts : float, optional
         Sampling period. Default: a period stored in the file (``Ts`` variable, iddata),
-        else the median step of the time column, else 1.0. When the file has time
-        stamps too, they must agree with ``Ts`` within ``time_tolerance``.
+        else in a period or rate column (``Ts``, ``dt``, ``Fs``, ``rate``... holding one
+        value, or filled in its first row only; ``Ts = 1/rate``), else the median step of
+        the time column, else 1.0. When the file has time stamps too, they must agree
+        with ``Ts`` within ``time_tolerance``.
     delimiter : str, optional
         Text files: the column separator, one character or ``"tab"``, ``"whitespace"``;
         default: sniffed (tab, ``;``, ``,``, ``|``, else whitespace).
@@ -81,10 +83,14 @@ def read_data(
     sheet : str or int, optional
         Excel files: the sheet's name or 0-based position; default the first.
     time_column : str or False, optional
-        The column of time stamps; default: the first column named ``time``, ``t``,
-        ``timestamp``, ``date`` or ``datetime`` (any case) that is not a channel; False:
-        none. Numbers are times in the unit of ``Ts``; date-times (ISO 8601 text,
-        spreadsheet or Parquet time stamps) give ``Ts`` in **seconds**.
+        The column of time stamps; default: among the columns that are not channels,
+        the first named ``time``, ``t``, ``timestamp``, ``date`` or ``datetime`` (any
+        case), else one whose name looks like time (``Time [s]``, ``Timestamp (UTC)``,
+        ``Zeit``) and that holds increasing times, else the first column when it holds
+        date-times, or evenly increasing numbers under a blank or generic name
+        (:mod:`moli.data.clocks`); False: none. Numbers are times in the unit of
+        ``Ts``; date-times (ISO 8601 text, spreadsheet or Parquet time stamps) give
+        ``Ts`` in **seconds**.
     time_format : str, optional
         strftime format of date-time text that is not ISO 8601, e.g. ``"%d/%m/%Y %H:%M:%S"``.
     time_tolerance : float, default 0.01
@@ -106,6 +112,9 @@ def read_data(
 
     Warns
     -----
+    SamplingPeriodWarning
+        When ``Ts`` is neither given nor stored as a variable: which column gave it, or
+        that 1.0 was assumed and how to set it.
     IrregularSamplingWarning
         Time steps that differ from ``Ts`` by more than ``time_tolerance``; the message
         lists the gaps longer than 1.5 Ts, the warning's ``gaps`` holds every such step

@@ -23,9 +23,14 @@ from .outliers import flag_outliers
 
 __all__ = ["QualityIssue", "check_data", "screen"]
 
-# A channel whose spread is below this share of its magnitude carries no information
-# at double precision (it is a constant plus round-off).
+# A channel whose spread is below this share of its magnitude (its level, when it is
+# nearly constant) carries no information at double precision: a constant plus round-off.
 CONSTANT_SPREAD = 1e-9
+# An input whose spread is below this share of its level moves less than 16 steps of
+# single precision (6e-8 of the level), the resolution of the many loggers that store
+# float32, and far less than any actuator moves about its operating point: what it
+# shows is storage or conversion error, and a model's gain from it is that error's.
+NEARLY_CONSTANT_SPREAD = 1e-6
 # Inputs whose normalized smallest singular value is below this are (nearly) linear
 # combinations of each other: their separate effects cannot be told apart.
 COLLINEAR_RATIO = 1e-6
@@ -51,7 +56,8 @@ class QualityIssue:
     Attributes
     ----------
     kind : str
-        "constant", "collinear", "excitation", "clipped", "quantized" or "outliers".
+        "constant", "nearly-constant", "collinear", "excitation", "clipped", "quantized"
+        or "outliers".
     channels : tuple of str
         The channels concerned.
     message : str
@@ -66,9 +72,11 @@ class QualityIssue:
     fatal: bool = False
 
 
-def _constant(x: np.ndarray) -> np.ndarray:
-    scale = np.max(np.abs(x), axis=0)
-    return np.std(x, axis=0) <= CONSTANT_SPREAD * np.where(scale > 0, scale, 1.0)
+def _spread(x: np.ndarray, offset: np.ndarray) -> np.ndarray:
+    """Each channel's standard deviation over its magnitude, offset included: a centred
+    record (identify screens one) keeps its level in ``offset``."""
+    scale = np.max(np.abs(x + offset), axis=0)
+    return np.std(x, axis=0) / np.where(scale > 0, scale, 1.0)
 
 
 def _exciting(u: np.ndarray, L: int, bounds: tuple[tuple[int, int], ...]) -> bool:
@@ -189,13 +197,23 @@ def check_data(data: IOData, nmax: int | None = None) -> list[QualityIssue]:
     if nmax is not None:
         nmax = integer("nmax", nmax, low=1)
     issues = []
-    dead_u, dead_y = _constant(data.u), _constant(data.y)
-    for name, dead in zip(data.input_names, dead_u):
+    spread_u = _spread(data.u, data.u_offset)
+    dead_u, dead_y = spread_u <= CONSTANT_SPREAD, _spread(data.y, data.y_offset) <= CONSTANT_SPREAD
+    for name, dead, spread in zip(data.input_names, dead_u, spread_u):
         if dead:
             issues.append(QualityIssue(
                 "constant", (name,),
-                f"input {name!r} is constant: it carries no information about the plant; "
-                "remove it from the inputs", fatal=True,
+                f"input {name!r} is constant (its standard deviation is {spread:.1e} of its "
+                "level): it carries no information about the plant; remove it from the inputs",
+                fatal=True,
+            ))
+        elif spread <= NEARLY_CONSTANT_SPREAD:
+            issues.append(QualityIssue(
+                "nearly-constant", (name,),
+                f"input {name!r} is nearly constant: its standard deviation is {spread:.1e} of "
+                f"its level, below {NEARLY_CONSTANT_SPREAD:g}, where storage and conversion "
+                "errors are as large as its variations, so a model's gain from it is "
+                "meaningless; remove it from the inputs, or record it with its variations",
             ))
     for name, dead in zip(data.output_names, dead_y):
         if dead:

@@ -15,12 +15,13 @@ from typing import TYPE_CHECKING, Callable, Mapping, Sequence
 import numpy as np
 
 from .cells import is_missing, parse_numbers
+from .clocks import find_clock, looks_like_time, period_kind, period_notice, stated_period
 from .iodata import IOData
 from .timing import (
     TIME_COLUMNS, TIME_TOLERANCE, check_period, check_tolerance, datetimes_to_seconds,
     gap_starts, irregular_warning, iso_to_seconds, sampling_period,
 )
-from ..errors import DataError, IrregularSamplingWarning, OptionError
+from ..errors import DataError, IrregularSamplingWarning, OptionError, SamplingPeriodWarning
 
 if TYPE_CHECKING:  # pandas is optional
     import pandas as pd
@@ -111,19 +112,21 @@ def check_header(names: Sequence[object], source: str) -> None:
 def needed_columns(request: Request, names: Sequence[str]) -> set[str] | None:
     """The columns of ``names`` that :func:`record` reads for ``request``; None: every one.
 
-    A reader that can skip columns parses only these: the channels and the time column
-    (the one named, else the first time-like name that is not a channel), so a long
-    record's comment or status column never becomes text in memory.
+    A reader that can skip columns parses only these: the channels, the time column
+    named or the candidates for one (time-like names, the first column) and the period
+    columns (moli.data.clocks), so a long record's comment or status column never
+    becomes text in memory.
     """
     if request.inputs is None or request.outputs is None:
         return None
     channels = {*request.inputs, *request.outputs}
+    periods = {name for name in names if period_kind(name) is not None}
     if isinstance(request.time_column, str):
-        return channels | {request.time_column}
-    clock = None if request.time_column is False else next(
-        (name for name in names if name not in channels and name.strip().lower() in TIME_COLUMNS),
-        None)
-    return channels | ({clock} if clock is not None else set())
+        return channels | periods | {request.time_column}
+    if request.time_column is False:
+        return channels | periods
+    clocks = {name for name in names if name.strip().lower() in TIME_COLUMNS or looks_like_time(name)}
+    return channels | periods | clocks | set(names[:1])
 
 
 def _listing(table: Table) -> str:
@@ -192,19 +195,6 @@ def _channels(table: Table, request: Request) -> tuple[tuple[str, ...], tuple[st
     return request.inputs, request.outputs
 
 
-def _clock(table: Table, request: Request, channels: Sequence[str]) -> str | None:
-    """The time column: the one named, else the first with a time-like name."""
-    if request.time_column is False:
-        return None
-    if isinstance(request.time_column, str):
-        if request.time_column not in table.columns:
-            raise DataError(f"{table.source} has no time column {request.time_column!r}; "
-                            f"columns: {_listing(table)}")
-        return request.time_column
-    return next((name for name in table.columns if name not in channels
-                 and name.strip().lower() in TIME_COLUMNS), None)
-
-
 def _seconds(table: Table, name: str, time_format: str | None) -> tuple[np.ndarray, str]:
     """A time column as numbers (its own unit) or date-times (seconds), and the unit."""
     values = _column(table, name)
@@ -230,33 +220,39 @@ def _seconds(table: Table, name: str, time_format: str | None) -> tuple[np.ndarr
     )
 
 
-def _period(table: Table, request: Request, clock: str | None,
-            samples: int) -> tuple[float, IrregularSamplingWarning | None]:
-    Ts, stated = request.Ts, "given"
-    if table.Ts is not None and Ts is None:
-        Ts, stated = table.Ts, f"stored in {table.source}"
-    elif table.Ts is not None and abs(table.Ts - Ts) > request.tolerance * Ts:
-        raise DataError(f"{table.source} stores Ts = {table.Ts:g}, but Ts = {Ts:g} was given; "
-                        "drop Ts to use the file's, or correct it")
-    if clock is None:
-        return (1.0 if Ts is None else Ts), None
-    seconds, unit = _seconds(table, clock, request.time_format)
+def _period(table: Table, request: Request, channels: Sequence[str], samples: int
+            ) -> tuple[float, IrregularSamplingWarning | None, SamplingPeriodWarning | None]:
+    """The period of the record, the warning about irregular steps, and the notice of
+    where the period came from when the caller gave none."""
+    if isinstance(request.time_column, str) and request.time_column not in table.columns:
+        raise DataError(f"{table.source} has no time column {request.time_column!r}; "
+                        f"columns: {_listing(table)}")
+    clock = find_clock(table.columns, list(table.names or table.columns), channels,
+                       request.time_column, request.time_format, table.decimal, request.tolerance)
+    Ts, stated = stated_period(request.Ts, table.Ts, clock, table.source, request.tolerance)
+    chosen = request.Ts is None and table.Ts is None      # moli chose the period: say how
+    if clock.time is None:
+        Ts = 1.0 if Ts is None else Ts
+        return Ts, None, period_notice(table.source, clock, Ts, "") if chosen else None
+    name = clock.time
+    seconds, unit = _seconds(table, name, request.time_format)
     if len(seconds) != samples:
-        raise DataError(f"time column {clock!r} of {table.source} has {len(seconds)} values, "
+        raise DataError(f"time column {name!r} of {table.source} has {len(seconds)} values, "
                         f"the channels {samples}")
     missing = np.flatnonzero(np.isnan(seconds))
     if missing.size:
-        raise DataError(f"{table.source}, {table.row(int(missing[0]))}, column {clock!r}: "
+        raise DataError(f"{table.source}, {table.row(int(missing[0]))}, column {name!r}: "
                         "the time stamp is missing")
 
     def where(k: int) -> str:
-        return f"{table.source}, {table.row(k)}, column {clock!r}"
+        return f"{table.source}, {table.row(k)}, column {name!r}"
 
-    period, gaps = sampling_period(seconds, Ts, request.tolerance, where, stated)
+    period, gaps = sampling_period(seconds, Ts, request.tolerance, where, stated or "given")
+    notice = period_notice(table.source, clock, period, unit) if chosen else None
     if not gaps:
-        return period, None
+        return period, None, notice
     return period, irregular_warning(gaps, period, samples, request.tolerance, table.source,
-                                     table.row, unit)
+                                     table.row, unit), notice
 
 
 def record(table: Table, request: Request) -> IOData:
@@ -274,15 +270,15 @@ def record(table: Table, request: Request) -> IOData:
     if lengths == {0}:
         raise DataError(f"{table.source} has no data rows")
     _check_missing(table, list(columns), list(columns.values()))
-    clock = _clock(table, request, list(columns))
-    Ts, warning = _period(table, request, clock, lengths.pop())
+    Ts, warning, notice = _period(table, request, list(columns), lengths.pop())
     u = np.column_stack([columns[name] for name in inputs])
     y = np.column_stack([columns[name] for name in outputs])
     # a gap in the clock is a segment boundary, like a missing sample
     starts = None if warning is None else gap_starts(warning.gaps, Ts)
     data = IOData(y, u, Ts, output_names=outputs, input_names=inputs, segment_starts=starts)
-    if warning is not None:
-        warnings.warn(warning, stacklevel=3)
+    for found in (warning, notice):
+        if found is not None:
+            warnings.warn(found, stacklevel=3)
     return data
 
 
@@ -306,7 +302,8 @@ def from_columns(
     inputs, outputs : sequence of str
         Names of the input and output columns, in channel order.
     Ts : float, optional
-        Sampling period; default: the median step of the time column, else 1.0.
+        Sampling period; default: a period or rate column, else the median step of the
+        time column, else 1.0 (a :class:`~moli.errors.SamplingPeriodWarning` says which).
     source : str
         What to call the table in error messages.
     time_column, time_format, time_tolerance
@@ -369,8 +366,9 @@ def from_dataframe(
     inputs, outputs : sequence of str
         Column names of the channels.
     Ts : float, optional
-        Sampling period; default: the median step of a time column or a named index
-        (seconds for date-times), else 1.0.
+        Sampling period; default: a period or rate column, else the median step of a time
+        column or a named index (seconds for date-times), else 1.0 (a
+        :class:`~moli.errors.SamplingPeriodWarning` says which).
     time_column, time_format, time_tolerance
         As for :func:`moli.read_data`.
 

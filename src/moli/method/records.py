@@ -9,7 +9,7 @@ import numpy as np
 from ..data.iodata import IOData, longest_segment, merge
 from ..errors import DataError, DataQualityWarning, OptionError
 from ..models.delays import shift_inputs
-from ..validation.delays import first_significant_lags
+from ..validation.delays import first_response_lags
 from .estimation import check_sample_count
 from .structure import Indices
 
@@ -62,7 +62,7 @@ def input_delays(delays: int | tuple[int, ...] | str, estimation: IOData) -> tup
     m = estimation.m
     if delays == "auto":
         # lagged regressions run through time: on the longest continuous stretch
-        first, _ = first_significant_lags(longest_segment(estimation))
+        first, _ = first_response_lags(longest_segment(estimation))
         # per input, the earliest response over the outputs; an input that no output
         # answers within the lags looked at gets no delay (nothing supports one)
         return tuple(

@@ -162,6 +162,28 @@ def _scale(A: np.ndarray) -> float:
     return max(1.0, float(np.linalg.norm(A, 2))) if A.size else 1.0
 
 
+def _pole(z: complex) -> str:
+    return f"z = {z.real:.4g}" + (f"{z.imag:+.4g}j" if z.imag else "")
+
+
+def _no_conversion(method: str, problem: str, poles: np.ndarray, tustin_works: bool) -> DataError:
+    """The refusal of ``to_continuous(method)``, naming the poles and the ways forward."""
+    options = ["method='tustin', the bilinear map, which converts these poles (exact at low "
+               "frequency, warped near Nyquist)"] if tustin_works else []
+    options += [
+        "keep the discrete model: simulate, frequency_response, to_control() and the "
+        "controller design all work in discrete time",
+        "identify from data sampled faster (a higher sampling rate puts real modes near "
+        "z = 1, away from z <= 0), or pick a lower order from result.path: a pole on the "
+        "negative real axis is often a mode fitted to noise",
+    ]
+    listed = "; ".join(f"({k}) {option}" for k, option in enumerate(options, start=1))
+    return DataError(
+        f"to_continuous(method={method!r}) has no real solution: {problem}: "
+        f"{', '.join(_pole(z) for z in poles)}. Options: {listed}"
+    )
+
+
 def _zoh_inverse(model: StateSpaceModel) -> tuple[np.ndarray, ...]:
     A, B, n, m = model.A, model.B, model.n, model.m
     poles = model.poles()
@@ -181,25 +203,23 @@ def _zoh_inverse(model: StateSpaceModel) -> tuple[np.ndarray, ...]:
             bad = np.abs(np.angle(poles)) == np.max(np.abs(np.angle(poles)))
             logarithm = None
     if logarithm is None:
-        z = poles[np.argmax(bad)]
-        where = "at z = 0" if near_zero[np.argmax(bad)] else "on the negative real axis"
-        raise DataError(
-            f"to_continuous(method='zoh') has no real solution: the model has a pole {where} "
-            f"(z = {z.real:.4g}{z.imag:+.4g}j), which no zero-order hold of a continuous system "
-            "produces. Use method='tustin', or resample (identify from data sampled so that no "
-            "mode sits at z = 0 or at the Nyquist frequency)"
-        )
+        raise _no_conversion(
+            "zoh", "the model has poles at z = 0 or on the negative real axis, which no "
+            "zero-order hold of a continuous system produces", poles[bad],
+            tustin_works=not np.any(np.abs(poles + 1.0) <= POLE_TOLERANCE * _scale(A)))
     real = np.real(logarithm)
     return real[:n, :n].copy(), real[:n, n:].copy(), model.C.copy(), model.D.copy()
 
 
 def _tustin_inverse(model: StateSpaceModel) -> tuple[np.ndarray, ...]:
     A, B, C, D, Ts, n = model.A, model.B, model.C, model.D, model.Ts, model.n
-    if n and np.min(np.abs(model.poles() + 1.0)) <= POLE_TOLERANCE * _scale(A):
-        raise DataError(
-            "to_continuous(method='tustin') has no solution: the model has a pole at z = -1, "
-            "which the bilinear map sends to infinity. Use method='zoh', or resample the data"
-        )
+    at_minus_one = np.abs(model.poles() + 1.0) <= POLE_TOLERANCE * _scale(A)
+    if np.any(at_minus_one):
+        # a pole at -1 is on the negative real axis: the zero-order hold fails as well
+        raise _no_conversion(
+            "tustin", "the model has poles at z = -1, which the bilinear map sends to "
+            "infinity (and which no zero-order hold produces either)",
+            model.poles()[at_minus_one], tustin_works=False)
     shifted = A + np.eye(n)
     # Ac = (2/Ts)(A - I)(A + I)^-1 (the factors commute), Bc = (2/Ts)(A + I)^-1 B,
     # Cc = 2 C (A + I)^-1, Dc = D - Cc B / 2: solves, no inverse formed

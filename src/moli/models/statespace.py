@@ -346,9 +346,10 @@ class StateSpaceModel(Dimensions):
         ----------
         method : {"zoh", "tustin"}
             "zoh": matrix logarithm of ``[[A, B], [0, I]]``, divided by ``Ts``; needs
-            no pole at ``z = 0`` or on the negative real axis (:class:`DataError`
-            otherwise). "tustin": inverse of ``s = (2/Ts)(z-1)/(z+1)``; needs no
-            pole at ``z = -1``.
+            no pole at ``z = 0`` or on the negative real axis. "tustin": inverse of
+            ``s = (2/Ts)(z-1)/(z+1)``; needs no pole at ``z = -1``. Otherwise a
+            :class:`DataError` names the poles and the ways forward (the other
+            method, keeping the discrete model, faster sampling or a lower order).
 
         Returns
         -------
