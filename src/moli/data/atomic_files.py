@@ -119,13 +119,17 @@ def check_output_file(path: str | os.PathLike[str], what: str,
     MoliError
         Naming ``what`` and the reason.
     """
-    target = Path(path)
+    target = _not_an_input(Path(path), what, inputs)
+    _check_writable(target.parent, what)
+    return target
+
+
+def _not_an_input(target: Path, what: str, inputs: Iterable[str | os.PathLike[str]]) -> Path:
     if target.is_dir():
         raise MoliError(f"{what}: {target} is a folder; give a file name")
     for source in inputs:
         if _same_file(target, Path(source)):
             raise MoliError(f"{what}: {target} is an input of this run; writing it would destroy it")
-    _check_writable(target.parent, what)
     return target
 
 
@@ -139,8 +143,9 @@ def check_output_folder(path: str | os.PathLike[str], what: str, names: Iterable
     folder = Path(path)
     if folder.exists() and not folder.is_dir():
         raise MoliError(f"{what}: {folder} is a file, not a folder")
+    inputs = list(inputs)
     for name in names:
-        check_output_file(folder / name, what, inputs)
+        _not_an_input(folder / name, what, inputs)
     _check_writable(folder, what)
     return folder
 
