@@ -161,7 +161,7 @@ def options_from_flags(options_file: Path | None, preset: str | None, **flags: A
         content = json.loads(Path(options_file).read_text())
     except FileNotFoundError:
         raise OptionError(f"--options: no file at {options_file}") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+    except (ValueError, RecursionError) as exc:  # bad JSON or UTF-8, too deep, integers too long
         raise OptionError(f"--options: {options_file} is not a JSON file: {exc}") from None
     if isinstance(content, dict) and content.get("format") == "moli-model":
         content = content.get("info", {}).get("options", {})  # a saved model: the options that made it
