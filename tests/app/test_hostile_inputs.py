@@ -23,7 +23,7 @@ from moli.app.figures import measured_vs_simulated
 from moli.app.fleet_report import write_summary
 from moli.data import atomic_files
 from moli.data.display import FIGURE_LABEL_CHARS
-from moli.errors import DataError, ModelFileError, OptionError
+from moli.errors import DataError, ModelFileError
 
 CHANNELS = ["--inputs", "u1", "--outputs", "y1"]
 
@@ -255,7 +255,7 @@ def test_an_nmax_beyond_the_record_is_one_error_before_the_search(tmp_path):
     data = write_csv(tmp_path / "plant.csv", siso(N=600))
     assert_clean_error(run("fit", str(data), *CHANNELS, "--nmax", "100000"), "the largest order is")
     assert_clean_error(run("fit", str(data), *CHANNELS, "--order", "100000"), "order = 100000")
-    with pytest.raises(OptionError, match="largest order"):
+    with pytest.raises(DataError, match="largest order"):
         moli.identify(siso(N=600), nmax=100000)
 
 

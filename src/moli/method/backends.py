@@ -186,7 +186,7 @@ def dask_completed(client: Any, futures: Iterable[Any], timeout: float = NO_WORK
         yield from batch
         if batch:
             continue
-        if client.scheduler_info(n_workers=1)["workers"]:
+        if _has_workers(client):
             alone_since = None
         else:
             alone_since = alone_since or time.monotonic()
@@ -195,6 +195,14 @@ def dask_completed(client: Any, futures: Iterable[Any], timeout: float = NO_WORK
                 raise NoWorkersError(f"the Dask cluster at {address} has had no worker for {timeout:g} s; "
                                      f"{pending.count()} calls could not run: start workers, or run locally")
         time.sleep(POLL_SECONDS)
+
+
+def _has_workers(client: Any) -> bool:
+    try:
+        info = client.scheduler_info(n_workers=1)  # lists at most one worker: enough to know
+    except TypeError:  # a Dask before the n_workers argument lists them all
+        info = client.scheduler_info()
+    return bool(info["workers"])
 
 
 def _process_pool(workers: int, reusable: bool) -> tuple[concurrent.futures.Executor, str, bool]:

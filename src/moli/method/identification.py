@@ -189,7 +189,10 @@ def identify(
     OptionError
         An unknown or invalid option (before any work); the message names it.
     DataError
-        Records that are not :class:`IOData`, or whose channels do not match.
+        Records that are not :class:`IOData`, or whose channels do not match; a
+        channel whose magnitude double precision cannot identify from (above 1e150,
+        or nonzero and below 1e-150); an ``nmax`` or ``order`` beyond what the
+        record's samples can estimate (all before the search).
 
     Examples
     --------
@@ -390,7 +393,7 @@ def _check_reach(opts: IdentifyOptions, N: int, p: int, m: int) -> None:
     reach = largest_order(N, p, m, opts.feedthrough is not False)
     for name, value in (("nmax", opts.nmax), ("order", opts.order)):
         if value is not None and value > reach:
-            raise OptionError(
+            raise DataError(
                 f"IdentifyOptions.{name} = {value} (moli fit --{name}) is beyond what {N} samples of "
                 f"{p} outputs and {m} inputs can estimate: the largest order is {reach}; lower it "
                 "or give a longer record")
