@@ -268,7 +268,8 @@ def test_samples_at_the_edges_of_double_precision_are_one_error(tmp_path, factor
     assert [issue.kind for issue in moli.check_data(scaled)] == ["scale"]  # not "constant"
     path = tmp_path / "plant.csv"
     path.write_text("u1,y1\n" + "".join(f"{float(u)!r},{float(y)!r}\n" for u, y in zip(scaled.u[:, 0], scaled.y[:, 0])))
-    assert_clean_error(run("fit", str(path), *CHANNELS, "--nmax", "2", "--out", str(tmp_path / "m.json")), word)
+    assert_clean_error(run("fit", str(path), *CHANNELS, "--ts", "1", "--nmax", "2", "--out", str(tmp_path / "m.json")),
+                       word)
 
 
 @pytest.mark.parametrize("text", [

@@ -10,15 +10,14 @@ from typing import Any, Callable
 import numpy as np
 
 from ..data.iodata import IOData, longest_segment
-from ..data.quality import check_scale, screen
+from ..data.quality import screen
 from ..errors import ClosedLoopWarning, DataError, OptionError, OrderBoundWarning
 from ..models.statespace import StateSpaceModel
 from ..validation.comparison import compare, same_period
 from ..validation.feedback import feedback_check, usable_lags
 from .estimation import check_sample_count
-from .rows import largest_order
 from .long_records import reestimate, search_window
-from .records import input_delays, long_segments, shifted_inputs
+from .records import check_reach, check_scales, input_delays, long_segments, shifted_inputs
 from .noise_model import estimate_noise_model
 from .options import IdentifyOptions
 from .refinement import MAX_RADIUS
@@ -189,10 +188,9 @@ def identify(
     OptionError
         An unknown or invalid option (before any work); the message names it.
     DataError
-        Records that are not :class:`IOData`, or whose channels do not match; a
-        channel whose magnitude double precision cannot identify from (above 1e150,
-        or nonzero and below 1e-150); an ``nmax`` or ``order`` beyond what the
-        record's samples can estimate (all before the search).
+        Records that are not :class:`IOData`, or whose channels do not match; a channel
+        above 1e150 or below 1e-150 in magnitude; an ``nmax`` or ``order`` beyond what
+        the record's samples can estimate (all before the search).
 
     Examples
     --------
@@ -210,9 +208,7 @@ def identify(
         raise DataError(f"data must be an IOData, got {type(data).__name__}")
     if progress is not None and not callable(progress):
         raise OptionError(f"progress must be a callable taking a PathStep, got {type(progress).__name__}")
-    for record in (data, validation):
-        if isinstance(record, IOData):
-            check_scale(record)
+    check_scales(data, validation)
     if validation is None:
         if data.N * HOLDOUT_FRACTION < 1:
             raise DataError(f"data hold {data.N} sample{'s' if data.N != 1 else ''}: too few to hold out "
@@ -250,7 +246,7 @@ def identify(
     delays = input_delays(opts.delays, search_window(estimation, opts.search_samples)
                            if opts.delays == "auto" else estimation)
     check_sample_count(estimation.N - max(delays), (1,) * p, estimation.m, opts.feedthrough is not False)
-    _check_reach(opts, estimation.N - max(delays), p, estimation.m)
+    check_reach(opts.nmax, opts.order, estimation.N - max(delays), p, estimation.m, opts.feedthrough is not False)
     screen(estimation, nmax, stacklevel=2)
     start = time.perf_counter()
     # a plant told to have feedthrough shows it at lag 0 like feedback: test later lags only
@@ -386,17 +382,6 @@ def _fixed_order(path: list[PathStep], order: int | None, interrupted: bool) -> 
         return None
     raise DataError(f"IdentifyOptions.order = {order} is not on the greedy path: the record has "
                     f"too few samples for lists beyond n = {path[-1].order}")
-
-
-def _check_reach(opts: IdentifyOptions, N: int, p: int, m: int) -> None:
-    """An nmax or order asked for must be within what N samples can estimate (before the search)."""
-    reach = largest_order(N, p, m, opts.feedthrough is not False)
-    for name, value in (("nmax", opts.nmax), ("order", opts.order)):
-        if value is not None and value > reach:
-            raise DataError(
-                f"IdentifyOptions.{name} = {value} (moli fit --{name}) is beyond what {N} samples of "
-                f"{p} outputs and {m} inputs can estimate: the largest order is {reach}; lower it "
-                "or give a longer record")
 
 
 def _options(options: IdentifyOptions | None, overrides: dict[str, Any]) -> IdentifyOptions:
