@@ -25,17 +25,12 @@ def records(count: int = 3) -> dict[str, moli.IOData]:
     return {f"loop{k}": moli.example_data(N=400, seed=k) for k in range(count)}
 
 
-def assert_same_entries(first: FleetResult, second: FleetResult, warnings: bool = True) -> None:
-    """Bit for bit: names, errors, warnings, every path step's scores and the models.
-
-    ``warnings=False`` for thread backends: Python's warning filters are global to the
-    process, so threads cannot keep each record's warnings apart (docs/fleet.md).
-    """
+def assert_same_entries(first: FleetResult, second: FleetResult) -> None:
+    """Bit for bit: names, errors, warnings, every path step's scores and the models."""
     assert [e.name for e in first] == [e.name for e in second]
     for a, b in zip(first, second):
         assert (a.error, a.fit) == (b.error, b.fit), a.name
-        if warnings:
-            assert a.warnings == b.warnings, a.name
+        assert a.warnings == b.warnings, a.name
         if a.result is None:
             assert b.result is None
             continue
@@ -77,7 +72,7 @@ def test_every_local_backend_gives_the_serial_results(serial, executor):
     else:
         other = identify_many(records(), OPTIONS, executor="threading", n_jobs=2, progress=False)
         assert other.backend == "joblib threading, 2 workers"
-    assert_same_entries(serial, other, warnings=executor == "loky")
+    assert_same_entries(serial, other)
 
 
 def test_without_joblib_local_processes_come_from_concurrent_futures(serial, monkeypatch):

@@ -19,7 +19,9 @@ import numpy as np
 from tqdm import tqdm
 
 from .._version import __version__
+from ..data.atomic_files import check_output_file, check_output_folder
 from ..data.daisy import daisy_path, load_daisy
+from ..data.display import console_text
 from ..data.files import file_sha256, fingerprint, read_data
 from ..data.iodata import IOData
 from ..data.outliers import flag_outliers, remove_outliers
@@ -31,7 +33,7 @@ from ..models.statespace import StateSpaceModel
 from ..models.storage import load_model
 from ..systems.plant import example_data
 from ..validation.comparison import X0_CHOICES, compare
-from .figures import measured_vs_simulated
+from .figures import measured_vs_simulated, save_figure
 from .fleet_cli import fleet_commands
 from .fleet_report import SCORES
 from .report import write_report
@@ -44,6 +46,7 @@ INTERRUPTED = 130
 # C(n-1, p-1) grows fast, and each list costs one filter search.
 MAX_LISTS_PER_ORDER = 30
 DEMO_NMAX = 6
+REPORT_FILES = ("report.html",)
 
 
 class _Group(click.Group):
@@ -68,7 +71,7 @@ class _Group(click.Group):
             click.echo(f"moli: error: {exc.format_message()}", err=True)
             ctx.exit(USAGE_ERROR)
         except (MoliError, OSError) as exc:
-            click.echo(f"moli: error: {exc}", err=True)
+            click.echo(f"moli: error: {console_text(exc)}", err=True)
             ctx.exit(USAGE_ERROR)
         except KeyboardInterrupt:
             click.echo("moli: interrupted", err=True)
@@ -99,7 +102,7 @@ def _names(text: str | None) -> list[str] | None:
 
 def _echo_warnings(caught: list[warnings.WarningMessage]) -> None:
     for message in dict.fromkeys(str(w.message) for w in caught):
-        click.echo(f"moli: warning: {message}", err=True)
+        click.echo(f"moli: warning: {console_text(message)}", err=True)
 
 
 def _reading_options(command: Callable[..., Any]) -> Callable[..., Any]:
@@ -158,7 +161,7 @@ def options_from_flags(options_file: Path | None, preset: str | None, **flags: A
         content = json.loads(Path(options_file).read_text())
     except FileNotFoundError:
         raise OptionError(f"--options: no file at {options_file}") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+    except (ValueError, RecursionError) as exc:  # bad JSON or UTF-8, too deep, integers too long
         raise OptionError(f"--options: {options_file} is not a JSON file: {exc}") from None
     if isinstance(content, dict) and content.get("format") == "moli-model":
         content = content.get("info", {}).get("options", {})  # a saved model: the options that made it
@@ -232,6 +235,7 @@ def cli() -> None:
 @click.option("--all-lists", is_flag=True, help="Also fit every list of each order (slower).")
 def demo(out_dir: Path, nmax: int, all_lists: bool) -> None:
     """Identify the built-in simulated 3x3 plant and write a report."""
+    check_output_folder(out_dir, "--out", ("model.json", *REPORT_FILES))
     data = example_data()
     click.echo(f"built-in example plant: {data}")
     result = _identify(data, 0.5, IdentifyOptions(nmax=nmax))
@@ -286,6 +290,10 @@ def fit(data_file: Path | None, inputs: str | None, outputs: str | None, daisy: 
     """
     if (data_file is None) == (daisy is None):
         raise DataError("give either a DATA file or --daisy NAME")
+    read = [path for path in (data_file, options_file) if path is not None]
+    check_output_file(model_path, "--out", read)
+    if report_dir is not None:
+        check_output_folder(report_dir, "--report", REPORT_FILES, read)
     options = options_from_flags(options_file, preset, nmax=nmax, order=order, seed=seed, x0=x0)
     if daisy is not None:
         data = load_daisy(daisy, data_dir)
@@ -321,6 +329,7 @@ def validate(model_file: Path, data_file: Path, inputs: str | None, outputs: str
     columns, and with the model's sampling period: time stamps or a period stored in
     DATA must agree with it.
     """
+    check_output_file(plot, "--plot", [model_file, data_file])
     model = load_model(model_file)
     data = _read(data_file, _names(inputs) or list(model.input_names),
                  _names(outputs) or list(model.output_names), model.Ts, reading)
@@ -328,11 +337,11 @@ def validate(model_file: Path, data_file: Path, inputs: str | None, outputs: str
     click.echo(f"{data_file}: {data.N} samples; simulation from {x0} initial state")
     click.echo(f"{'output':<16}{'VAF %':>9}{'fit %':>9}")
     for name, v, f in zip(data.output_names, comparison.vaf, comparison.fit):
-        click.echo(f"{name:<16}{v:>9.2f}{f:>9.2f}")
+        click.echo(f"{console_text(name):<16}{v:>9.2f}{f:>9.2f}")
     click.echo(f"{'mean':<16}{comparison.mean_vaf:>9.2f}{np.mean(comparison.fit):>9.2f}")
     click.echo(SCORES)
     plot.parent.mkdir(parents=True, exist_ok=True)
-    measured_vs_simulated(data, comparison).savefig(plot, dpi=110)
+    save_figure(measured_vs_simulated(data, comparison), plot)
     click.echo(f"figure written to {plot}")
 
 
@@ -362,8 +371,8 @@ def describe(model: StateSpaceModel) -> str:
     z = model.poles()
     lines = [
         f"state-space model: n = {model.n}, {model.p} outputs, {model.m} inputs, Ts = {model.Ts:g}",
-        f"outputs: {', '.join(model.output_names)}",
-        f"inputs: {', '.join(model.input_names)}",
+        f"outputs: {', '.join(map(console_text, model.output_names))}",
+        f"inputs: {', '.join(map(console_text, model.input_names))}",
     ]
     if any(model.input_delays):
         lines.append(f"input delays (samples): {list(model.input_delays)}")
@@ -383,7 +392,7 @@ def describe(model: StateSpaceModel) -> str:
     lines += [f"  {p.real:+.4f} {p.imag:+.4f}j  ({abs(p):.4f})" for p in z[np.argsort(-np.abs(z))]]
     data = model.info.get("data", {})
     if "sha256" in data:
-        lines.append(f"estimated on {data.get('source', '?')}: {data['N']} samples, "
+        lines.append(f"estimated on {console_text(data.get('source', '?'))}: {data['N']} samples, "
                      f"sha256 {data['sha256'][:16]}...")
     return "\n".join(lines)
 

@@ -6,12 +6,16 @@ pyplot, so drawing many reports never accumulates open windows or memory.
 
 from __future__ import annotations
 
+import io
+from pathlib import Path
 from typing import Sequence
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from ..data.atomic_files import write_atomic
+from ..data.display import figure_label
 from ..data.iodata import IOData
 from ..models.statespace import StateSpaceModel
 from ..method.search import PathStep
@@ -21,7 +25,7 @@ from ..validation.frequency import empirical_frequency_response
 __all__ = [
     "singular_values",
     "vaf_by_order", "measured_vs_simulated", "poles", "step_responses", "settling_samples",
-    "bode_magnitude", "envelope",
+    "bode_magnitude", "envelope", "save_figure",
 ]
 
 PANEL_HEIGHT = 1.9  # inches per row of axes
@@ -44,15 +48,26 @@ def _figure(width: float, height: float) -> Figure:
     return fig
 
 
+def save_figure(fig: Figure, path: Path) -> bytes:
+    """Write ``fig`` whole or not at all (:func:`moli.data.atomic_files.write_atomic`); its bytes.
+
+    The format follows the suffix of ``path`` (PNG without one).
+    """
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format=path.suffix[1:].lower() or "png", dpi=110)
+    write_atomic(path, buffer.getvalue())
+    return buffer.getvalue()
+
+
 def _channel_grid(model: StateSpaceModel, ylabel: str, xlabel: str) -> tuple[Figure, np.ndarray]:
     """A p-by-m grid of axes, one per channel: inputs in the column titles, outputs on the rows."""
     fig = _figure(2.4 * model.m + 0.6, PANEL_HEIGHT * model.p + 0.4)
     axes = fig.subplots(model.p, model.m, sharex=True, squeeze=False)
     for j, name in enumerate(model.input_names):
-        axes[0, j].set_title(f"from {name}", fontsize=9)
+        axes[0, j].set_title(f"from {figure_label(name)}", fontsize=9)
         axes[-1, j].set_xlabel(xlabel)
     for i, name in enumerate(model.output_names):
-        axes[i, 0].set_ylabel(f"{ylabel} {name}")
+        axes[i, 0].set_ylabel(f"{ylabel} {figure_label(name)}")
     return fig, axes
 
 
@@ -185,7 +200,7 @@ def measured_vs_simulated(data: IOData, comparison: Comparison) -> Figure:
             grid[i, 1].plot(t[tail], data.y[tail, i], color="0.2", linewidth=1.0)
             grid[i, 1].plot(t[tail], comparison.yhat[tail, i], color="C1", linewidth=1.0)
             grid[i, 1].grid(alpha=0.3)
-        ax.set_ylabel(data.output_names[i])
+        ax.set_ylabel(figure_label(data.output_names[i]))
         ax.set_title(f"VAF {comparison.vaf[i]:.1f} %, fit {comparison.fit[i]:.1f} %",
                      fontsize=9, loc="right")
         ax.grid(alpha=0.3)

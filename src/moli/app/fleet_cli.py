@@ -16,9 +16,11 @@ from typing import Any, Callable
 import click
 import numpy as np
 
+from ..data.atomic_files import check_output_folder
+from ..data.display import console_text
 from ..data.files import read_data
 from ..errors import DataError, MoliError, OptionError
-from ..method.fleet import identify_many
+from ..method.fleet import FleetEntry, identify_many
 from ..method.identification import IdentificationResult
 from ..method.options import PRESETS, IdentifyOptions
 from ..models.storage import load_model
@@ -28,6 +30,10 @@ from .fleet_report import SCORES, write_summary
 __all__ = ["fleet_commands", "match_files"]
 
 FAILED = 1
+SUMMARY_FILES = ("summary.csv", "summary.html")
+VALIDATION_FILES = ("validation.csv", "validation.html")
+# Names longer than this are cut in the console table (the CSV keeps them whole).
+NAME_WIDTH = 24
 # validate-many flags a loop whose mean fit fell by more than this many points.
 DEFAULT_MAX_DROP = 5.0
 FIT_COLUMNS = ("name", "order", "fit", "vaf", "seconds", "error", "source")
@@ -50,6 +56,17 @@ def match_files(patterns: tuple[str, ...]) -> list[Path]:
     return list(found)
 
 
+def _by_stem(files: list[Path]) -> dict[str, Path]:
+    """Each file under its stem, the name of its record and its model; two files of one stem are refused."""
+    named: dict[str, Path] = {}
+    for path in files:
+        if path.stem in named:
+            raise DataError(f"{named[path.stem]} and {path} are both named {path.stem!r}: a record is "
+                            "known by its file's stem; rename one or run them apart")
+        named[path.stem] = path
+    return named
+
+
 def _names(text: str | None) -> list[str] | None:
     return None if text is None else [name.strip() for name in text.split(",") if name.strip()]
 
@@ -63,6 +80,17 @@ def _client(address: str) -> Any:
         return Client(address, timeout="20s")
     except (OSError, TimeoutError) as exc:
         raise OptionError(f"--scheduler: cannot reach {address}: {exc}") from None
+
+
+def _saved(entry: FleetEntry, source: Path, out_dir: Path) -> dict[str, Any]:
+    """The entry's summary row after saving its model; a model that cannot be written fails its row alone."""
+    row = entry.row()
+    if entry.result is not None:
+        try:
+            _save(entry.result, entry.fit, source, out_dir / f"{entry.name}.json")
+        except OSError as exc:
+            row["error"] = f"the model was identified but not written: {type(exc).__name__}: {exc}"
+    return row
 
 
 def _save(result: IdentificationResult, fit: float | None, source: Path, path: Path) -> None:
@@ -120,6 +148,9 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
             raise OptionError("give either --workers (local processes) or --scheduler, not both")
         options = options_from_flags(options_file, preset, nmax=nmax, seed=seed)
         files = match_files(patterns)
+        sources = _by_stem(files)
+        check_output_folder(out_dir, "--out", [*SUMMARY_FILES, *(f"{name}.json" for name in sources)],
+                            [*files, *([options_file] if options_file else [])])
         read = {"inputs": _names(inputs), "outputs": _names(outputs), "Ts": ts}
         executor = None if scheduler is None else _client(scheduler)
         try:
@@ -128,22 +159,19 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
             if executor is not None:
                 executor.close()
         out_dir.mkdir(parents=True, exist_ok=True)
-        rows = []
-        for entry, source in zip(fleet, files):
-            if entry.result is not None:
-                _save(entry.result, entry.fit, source, out_dir / f"{entry.name}.json")
-            rows.append({**entry.row(), "source": str(source)})
+        rows = [{**_saved(entry, sources[entry.name], out_dir), "source": str(sources[entry.name])}
+                for entry in fleet]
+        failed = [row for row in rows if row["error"]]
         csv_path, html_path = write_summary(
             rows, FIT_COLUMNS, out_dir, "summary", "moli fit-many", "fit",
             notes=[f"fit and vaf: mean over the outputs of the selected model's NRMSE fit and VAF "
                    f"on the held-out tail, percent; run on {fleet.backend} in {fleet.seconds:.1f} s",
                    SCORES],
         )
-        failed = fleet.failures
         click.echo(f"{len(fleet)} records on {fleet.backend} in {fleet.seconds:.1f} s: "
                    f"{len(fleet) - len(failed)} models in {out_dir}, {len(failed)} failed")
-        for entry in failed:
-            click.echo(f"  failed: {entry.name}: {entry.error}", err=True)
+        for row in failed:
+            click.echo(f"  failed: {console_text(row['name'])}: {console_text(row['error'])}", err=True)
         click.echo(f"summary written to {csv_path} and {html_path}")
         if failed:
             raise click.exceptions.Exit(FAILED)
@@ -169,7 +197,9 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
         if not models_dir.is_dir():
             raise DataError(f"no folder of models at {models_dir}")
         models = {path.stem: path for path in sorted(models_dir.glob("*.json"))}
-        records = {path.stem: path for path in match_files(patterns)}
+        records = _by_stem(match_files(patterns))
+        check_output_folder(out_dir or models_dir, "--out", VALIDATION_FILES,
+                            [*records.values(), *models.values()])
         if not set(models) & set(records):
             raise DataError(f"no record matched by {', '.join(patterns)} has a model of its name in {models_dir}")
         rows = [_check(name, models.get(name), records[name], x0, max_drop) for name in records]
@@ -185,9 +215,9 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
         )
         click.echo(f"{'name':<24}{'fit before':>12}{'fit now':>10}{'drop':>8}  status")
         for row in sorted(rows, key=lambda r: -(r.get("drop") or 0)):
-            click.echo(f"{row['name']:<24}{_number(row.get('fit_before')):>12}"
+            click.echo(f"{console_text(row['name'], NAME_WIDTH):<24}{_number(row.get('fit_before')):>12}"
                        f"{_number(row.get('fit_now')):>10}{_number(row.get('drop')):>8}  "
-                       + (f"failed: {row['error']}" if row.get("error") else row["status"]))
+                       + (f"failed: {console_text(row['error'])}" if row.get("error") else row["status"]))
         click.echo(f"{len(rows)} loops, {sum(flagged)} flagged; written to {csv_path} and {html_path}")
         if any(flagged):
             raise click.exceptions.Exit(FAILED)

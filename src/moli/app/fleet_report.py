@@ -8,6 +8,8 @@ from pathlib import Path
 from typing import Any, Mapping, Sequence
 
 from .._version import __version__
+from ..data.atomic_files import atomic_file, write_atomic
+from ..data.display import spreadsheet_cell
 
 __all__ = ["SCORES", "write_summary"]
 
@@ -89,10 +91,11 @@ def write_summary(
     """
     folder.mkdir(parents=True, exist_ok=True)
     csv_path, html_path = folder / f"{stem}.csv", folder / f"{stem}.html"
-    with csv_path.open("w", newline="") as handle:
+    with atomic_file(csv_path, newline="") as handle:
         writer = csv.DictWriter(handle, fieldnames=list(columns), extrasaction="ignore")
         writer.writeheader()
-        writer.writerows({c: "" if row.get(c) is None else row[c] for c in columns} for row in rows)
+        writer.writerows({c: "" if row.get(c) is None else spreadsheet_cell(row[c]) for c in columns}
+                         for row in rows)
     marks = list(flagged) if flagged is not None else [False] * len(rows)
     order = sorted(range(len(rows)), key=lambda i: (rows[i].get(sort_by) is None, -(rows[i].get(sort_by) or 0)))
     head = "".join(f'<th onclick="sortBy({k})">{html.escape(c)}</th>' for k, c in enumerate(columns))
@@ -120,5 +123,5 @@ def write_summary(
 <p class="note">moli {__version__}</p>
 </body></html>
 """
-    html_path.write_text(page, encoding="utf-8")
+    write_atomic(html_path, page)
     return csv_path, html_path

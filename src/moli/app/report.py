@@ -14,10 +14,10 @@ from pathlib import Path
 from typing import Mapping, Sequence
 
 import numpy as np
-from matplotlib.figure import Figure
 
 from . import figures
 from .._version import __version__
+from ..data.atomic_files import write_atomic
 from ..data.files import file_sha256
 from ..data.iodata import longest_segment
 from ..method.identification import IdentificationResult
@@ -37,11 +37,6 @@ tr.selected { background: #fde7c7; font-weight: bold; }
 img { max-width: 100%; }
 .note { color: #555; font-size: 0.9em; }
 """
-
-
-def _save(fig: Figure, path: Path) -> bytes:
-    fig.savefig(path, dpi=110)
-    return path.read_bytes()
 
 
 def _image(png: bytes, alt: str) -> str:
@@ -251,7 +246,7 @@ def write_report(
                               "the cross-correlation with each input (positive lags: past inputs).")
     figures_html = {}
     for name, (fig, caption) in drawn.items():
-        png = _save(fig, out / f"{name}.png")
+        png = figures.save_figure(fig, out / f"{name}.png")
         figures_html[name] = (f"<figure>{_image(png, name)}<figcaption class='note'>{caption}"
                               "</figcaption></figure>")
     residuals = "" if analysis is None else residual_section(analysis, figures_html.pop("residuals"))
@@ -283,5 +278,5 @@ the same in info["options"].</p>
 </body></html>
 """
     target = out / "report.html"
-    target.write_text(page, encoding="utf-8")
+    write_atomic(target, page)
     return target

@@ -9,7 +9,9 @@ period. A MATLAB iddata saved as a struct (``s = get(data)`` or ``struct(data)``
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -20,6 +22,7 @@ from ..errors import DataError
 __all__ = ["read_npz", "read_mat"]
 
 IDDATA_FIELDS = {"OutputData", "InputData"}
+Needed = Callable[[list[str]], "set[str] | None"]
 
 
 def _sample(index: int) -> str:
@@ -36,8 +39,11 @@ def _stored_period(value: object, where: str) -> float | None:
     return float(array.ravel()[0])
 
 
-def array_table(arrays: dict[str, object], source: str) -> Table:
-    """Columns of named arrays: vectors by name, ``u``/``y`` matrices split into channels."""
+def array_table(arrays: dict[str, object], source: str, stored: Sequence[str] = ()) -> Table:
+    """Columns of named arrays: vectors by name, ``u``/``y`` matrices split into channels.
+
+    ``stored`` names every array of the file, read or not, for messages.
+    """
     arrays = dict(arrays)
     Ts = _stored_period(arrays.pop("Ts", None), f"the Ts stored in {source}")
     columns: dict[str, np.ndarray] = {}
@@ -61,26 +67,43 @@ def array_table(arrays: dict[str, object], source: str) -> Table:
             f"{len(columns[marked['y'][0]])}; time runs along axis 0 (one row per sample)"
         )
     both = set(marked) == {"u", "y"}
+    unread = tuple(name for name in stored if name not in arrays and name != "Ts")
     return Table(columns, source, _sample, Ts,
-                 marked["u"] if both else None, marked["y"] if both else None)
+                 marked["u"] if both else None, marked["y"] if both else None,
+                 names=(tuple(columns) + unread) if unread else ())
 
 
-def read_npz(path: Path) -> Table:
-    """The arrays of a NumPy ``.npz`` archive (no pickled objects)."""
+def _wanted(stored: list[str], needed: Needed) -> list[str]:
+    """The stored arrays a request reads: the needed columns, ``u``/``y`` for their
+    channels ``u1, y2, ...``, and ``Ts``; every one when the request names no channels."""
+    kept = needed(stored)
+    if kept is None:
+        return stored
+    matrices = {name for name in ("u", "y") for column in kept if re.fullmatch(rf"{name}\d+", column)}
+    return [name for name in stored if name in kept or name in matrices or name == "Ts"]
+
+
+def read_npz(path: Path, needed: Needed = lambda names: None) -> Table:
+    """The arrays of a NumPy ``.npz`` archive (no pickled objects).
+
+    Only the arrays ``needed`` asks for are inflated (see :func:`_wanted`): an
+    archive's other members, however large, are never read.
+    """
     with parsing(path, "a NumPy .npz archive"):
         loaded = np.load(path, allow_pickle=False)
         if not hasattr(loaded, "files"):
             raise DataError(f"{path} holds a single array (.npy), not an .npz archive of named "
                             "arrays; save it with numpy.savez(path, u=..., y=...)")
         with loaded as archive:
-            arrays = {name: archive[name] for name in archive.files}
-    if not arrays:
+            stored = list(archive.files)
+            other = next((name for name in archive.zip.namelist() if not name.endswith(".npy")), None)
+            if other is not None:
+                raise DataError(f"{path} is a zip archive but not a NumPy .npz: its member {other!r} "
+                                "is not an array")
+            arrays = {name: archive[name] for name in _wanted(stored, needed)}
+    if not stored:
         raise DataError(f"{path} holds no arrays")
-    for name, value in arrays.items():
-        if not isinstance(value, np.ndarray):
-            raise DataError(f"{path} is a zip archive but not a NumPy .npz: its member {name!r} "
-                            "is not an array")
-    return array_table(arrays, str(path))
+    return array_table(arrays, str(path), stored)
 
 
 def _matrix(value: object, what: str) -> np.ndarray:
@@ -122,14 +145,21 @@ def iddata_table(name: str, struct: object, source: str) -> Table:
     return Table(columns, source, _sample, Ts, inputs, outputs)
 
 
-def read_mat(path: Path) -> Table:
-    """The variables of a MATLAB ``.mat`` file (v4 to v7), or the iddata struct it holds."""
-    from scipy.io import loadmat
+def read_mat(path: Path, needed: Needed = lambda names: None) -> Table:
+    """The variables of a MATLAB ``.mat`` file (v4 to v7), or the iddata struct it holds.
+
+    Only the variables ``needed`` asks for, and structs (an iddata may be one), are read.
+    """
+    from scipy.io import loadmat, whosmat
     from scipy.io.matlab import mat_struct
 
     with parsing(path, "a MATLAB .mat file"):
         try:
-            content = loadmat(path, squeeze_me=True, struct_as_record=False)
+            listed = whosmat(path)
+            stored = [name for name, _, _ in listed]
+            wanted = set(_wanted(stored, needed)) | {name for name, _, kind in listed if kind == "struct"}
+            content = loadmat(path, squeeze_me=True, struct_as_record=False,
+                              variable_names=[name for name in stored if name in wanted])
         except NotImplementedError:  # scipy's answer to the HDF5-based v7.3 format
             raise DataError(f"{path} is a MATLAB v7.3 (HDF5) file; save it in MATLAB with "
                             "save(name, ..., '-v7')") from None
@@ -142,4 +172,4 @@ def read_mat(path: Path) -> Table:
         raise DataError(f"{path} holds several iddata structs ({', '.join(structs)}); keep one per file")
     if structs:
         return iddata_table(*structs.popitem(), str(path))
-    return array_table(variables, str(path))
+    return array_table(variables, str(path), stored)

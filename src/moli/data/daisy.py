@@ -24,7 +24,6 @@ import gzip
 import hashlib
 import io
 import os
-import tempfile
 import urllib.request
 import zlib
 from dataclasses import dataclass
@@ -33,6 +32,7 @@ from typing import IO
 
 import numpy as np
 
+from .atomic_files import write_atomic
 from .daisy_catalog import DESTILL_NOISE_LEVELS, DISTILL2_STEPS, SPECS, DaisySpec
 from .iodata import IOData
 from ..errors import DataError, MoliError, OptionError
@@ -196,24 +196,17 @@ def _download(name: str, spec: DaisySpec, searched: list[Path]) -> Path:
     # Sets without a published checksum are at least checked for shape, before caching.
     _parse(io.BytesIO(payload), url, spec)
     target = cache_dir()
+    final = target / f"{name}.dat"
     try:
         target.mkdir(parents=True, exist_ok=True)
-        # Write to a temporary name first so an interrupted download never leaves a
-        # truncated NAME.dat that later calls would trust.
-        fd, tmp = tempfile.mkstemp(dir=target, prefix=f".{name}.", suffix=".part")
+        # whole or not at all: an interrupted download never leaves a truncated
+        # NAME.dat that later calls would trust
+        write_atomic(final, payload)
     except OSError as exc:
         raise DatasetUnavailableError(
             f"downloaded {url} but cannot write to the cache {target} ({exc}); "
             "set MOLI_CACHE_DIR to a writable folder"
         ) from exc
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(payload)
-        final = target / f"{name}.dat"
-        os.replace(tmp, final)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return final
 
 

@@ -155,7 +155,7 @@ def read_data(
     elif suffix == ".parquet":
         table = read_parquet(path, needed)
     else:
-        table = read_npz(path) if suffix == ".npz" else read_mat(path)
+        table = (read_npz if suffix == ".npz" else read_mat)(path, needed)
     return record(table, request)
 
 

@@ -21,8 +21,12 @@ from .arguments import integer
 from .iodata import IOData
 from .outliers import flag_outliers
 
-__all__ = ["QualityIssue", "check_data", "screen"]
+__all__ = ["QualityIssue", "check_data", "check_scale", "screen"]
 
+# Identification forms products of samples: beyond these magnitudes they overflow or
+# fall into the subnormals of double precision, so such a channel must be rescaled.
+LARGEST_MAGNITUDE = 1e150
+SMALLEST_MAGNITUDE = 1e-150
 # A channel whose spread is below this share of its magnitude (its level, when it is
 # nearly constant) carries no information at double precision: a constant plus round-off.
 CONSTANT_SPREAD = 1e-9
@@ -56,7 +60,7 @@ class QualityIssue:
     Attributes
     ----------
     kind : str
-        "constant", "nearly-constant", "collinear", "excitation", "clipped", "quantized"
+        "scale", "constant", "nearly-constant", "collinear", "excitation", "clipped", "quantized"
         or "outliers".
     channels : tuple of str
         The channels concerned.
@@ -70,6 +74,28 @@ class QualityIssue:
     channels: tuple[str, ...]
     message: str
     fatal: bool = False
+
+
+def _scale_issues(data: IOData) -> list[QualityIssue]:
+    issues = []
+    for what, names, x in (("input", data.input_names, data.u), ("output", data.output_names, data.y)):
+        for name, peak in zip(names, np.max(np.abs(x), axis=0, initial=0.0)):
+            if peak > LARGEST_MAGNITUDE or 0.0 < peak < SMALLEST_MAGNITUDE:
+                issues.append(QualityIssue(
+                    "scale", (name,),
+                    f"{what} {name!r} reaches at most {peak:.3g} in magnitude: products of such samples "
+                    f"{'overflow' if peak > 1 else 'underflow'} double precision; rescale it to "
+                    "magnitudes near 1 (change its unit)", fatal=True,
+                ))
+    return issues
+
+
+def check_scale(data: IOData) -> None:
+    """Raise :class:`DataError` naming each channel whose magnitude double precision cannot
+    identify from (above 1e150, or nonzero and below 1e-150)."""
+    issues = _scale_issues(data)
+    if issues:
+        raise DataError("; ".join(issue.message for issue in issues))
 
 
 def _spread(x: np.ndarray, offset: np.ndarray) -> np.ndarray:
@@ -196,7 +222,9 @@ def check_data(data: IOData, nmax: int | None = None) -> list[QualityIssue]:
         raise DataError(f"data must be an IOData, got {type(data).__name__}")
     if nmax is not None:
         nmax = integer("nmax", nmax, low=1)
-    issues = []
+    issues = _scale_issues(data)
+    if issues:  # the other checks would overflow or call tiny channels constant
+        return issues
     spread_u = _spread(data.u, data.u_offset)
     dead_u, dead_y = spread_u <= CONSTANT_SPREAD, _spread(data.y, data.y_offset) <= CONSTANT_SPREAD
     for name, dead, spread in zip(data.input_names, dead_u, spread_u):

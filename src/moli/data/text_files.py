@@ -14,7 +14,7 @@ import functools
 import itertools
 import re
 from pathlib import Path
-from typing import Callable, Iterator
+from typing import BinaryIO, Callable, Iterator
 
 from . import frame_files
 from .cells import optional
@@ -33,6 +33,8 @@ BOMS = (
 # The encoding detector reads this much of a file; a plant record's header and first
 # rows are text enough, and the detector's time grows with its input.
 DETECT_BYTES = 1 << 18
+# The sniffed lines are read whole up to this many bytes in all.
+SNIFF_BYTES = 1 << 26
 # Bytes read at a time when checking that a file is UTF-8.
 BLOCK_BYTES = 1 << 22
 WHITESPACE = r"\s+"
@@ -225,7 +227,14 @@ def _head_text(head: bytes, encoding: str, path: Path, given: bool) -> str:
 def _fields(line: str, delimiter: str) -> list[str]:
     if delimiter == WHITESPACE:
         return line.split()
-    return next(csv.reader([line], delimiter=delimiter))
+    if '"' not in line:  # nothing quoted: the csv module's field size limit need not apply
+        return line.split(delimiter)
+    limit = csv.field_size_limit()
+    csv.field_size_limit(max(limit, len(line) + 1))  # a wide table's line is one field for the wrong delimiter
+    try:
+        return next(csv.reader([line], delimiter=delimiter))
+    finally:
+        csv.field_size_limit(limit)
 
 
 def sniff_delimiter(lines: list[str]) -> str:
@@ -275,6 +284,21 @@ def _line_locator(path: Path, encoding: str, rows: int) -> Callable[[int], str]:
     return row
 
 
+def _sniffed_bytes(handle: BinaryIO, head: bytes) -> tuple[bytes, bool]:
+    """The bytes holding the lines the delimiter is sniffed from, and whether the file ended.
+
+    Reads on past ``head`` until those lines are whole, however long (a table of
+    20,000 columns has lines of hundreds of KiB), up to :data:`SNIFF_BYTES`.
+    """
+    sniffed = bytearray(head)
+    while sniffed.count(b"\n") <= SNIFF_LINES + 1 and len(sniffed) < SNIFF_BYTES:
+        block = handle.read(DETECT_BYTES)
+        if not block:
+            return bytes(sniffed), True
+        sniffed += block
+    return bytes(sniffed), len(head) < DETECT_BYTES
+
+
 def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: str | None,
               needed: Callable[[list[str]], set[str] | None] = lambda names: None) -> Table:
     """The columns of a text table, every cell located by its line in the file.
@@ -286,9 +310,10 @@ def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: 
     """
     with path.open("rb") as handle:
         head_bytes = handle.read(DETECT_BYTES)
+        sniffed, ended = _sniffed_bytes(handle, head_bytes)
     chosen = encoding or _file_encoding(path, head_bytes)
-    text = _head_text(head_bytes, chosen, path, encoding is not None)
-    if len(head_bytes) == DETECT_BYTES and "\n" in text:
+    text = _head_text(sniffed, chosen, path, encoding is not None)
+    if not ended and "\n" in text:
         text = text[: text.rindex("\n")]  # a line cut short would split into fewer fields
     head = [line for _, line in itertools.islice(_numbered(text), SNIFF_LINES + 1)]
     if not head:

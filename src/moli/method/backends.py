@@ -10,13 +10,28 @@ from __future__ import annotations
 import concurrent.futures
 import contextlib
 import os
-from typing import Any, Callable, Iterator, Sequence
+import time
+from typing import Any, Callable, Iterable, Iterator, Sequence
 
-from ..errors import OptionError
+from ..errors import MoliError, OptionError
 
-__all__ = ["usable_cpus", "run_calls"]
+__all__ = ["usable_cpus", "run_calls", "dask_completed", "NoWorkersError", "LostWorkerError",
+           "NO_WORKER_TIMEOUT"]
 
 Done = Iterator[tuple[int, Any, "BaseException | None"]]
+# Seconds a Dask cluster may have no worker at all before the calls still pending fail:
+# long enough for an autoscaler to bring up a replacement, short enough to end a run.
+NO_WORKER_TIMEOUT = 60.0
+# How often the pending Dask futures and the cluster's workers are looked at.
+POLL_SECONDS = 0.2
+
+
+class NoWorkersError(MoliError):
+    """A Dask cluster had no worker for longer than the timeout: pending work cannot run."""
+
+
+class LostWorkerError(RuntimeError):
+    """A call's worker process died (killed, out of memory, crashed) on its first try and its retry."""
 
 
 def usable_cpus() -> int:
@@ -33,6 +48,7 @@ def _is_dask_client(executor: Any) -> bool:
 @contextlib.contextmanager
 def run_calls(
     function: Callable[..., Any], calls: Sequence[tuple[Any, ...]], executor: Any, n_jobs: int | None,
+    no_worker_timeout: float = NO_WORKER_TIMEOUT,
 ) -> Iterator[tuple[str, Done]]:
     """Run ``function(*args)`` for every ``args`` of ``calls``.
 
@@ -49,6 +65,9 @@ def run_calls(
         its workers.
     n_jobs : int or None
         Local processes or joblib workers; default :func:`usable_cpus`.
+    no_worker_timeout : float
+        Seconds a Dask cluster may have no worker before its pending calls fail with
+        :class:`NoWorkersError`.
 
     Yields
     ------
@@ -56,7 +75,9 @@ def run_calls(
         Where the calls run, e.g. ``"loky, 2 processes"``.
     done : iterator of (int, object, BaseException or None)
         Per call, in completion order: its position, its value, and the error that
-        kept the backend from returning it (a lost worker, say), or None.
+        kept the backend from returning it (a lost worker, say), or None. On local
+        processes a call whose worker died is retried once in a process of its own,
+        so a call that kills its worker fails alone (:class:`LostWorkerError`).
 
     Raises
     ------
@@ -74,10 +95,12 @@ def run_calls(
                           f"or the name of a joblib backend, got {type(executor).__name__}")
     workers = max(1, min(n_jobs or usable_cpus(), len(calls)))
     if _is_dask_client(executor):
-        from distributed import as_completed
-
         address = getattr(getattr(executor, "scheduler", None), "address", "?")
-        with _futures(executor.submit, calls, function, as_completed, pure=False) as done:
+
+        def completed(futures: list[Any]) -> Iterator[Any]:
+            return dask_completed(executor, futures, no_worker_timeout)
+
+        with _futures(executor.submit, calls, function, completed, pure=False) as done:
             yield f"dask, {address}", done
     elif isinstance(executor, concurrent.futures.Executor):
         with _futures(executor.submit, calls, function, concurrent.futures.as_completed) as done:
@@ -88,15 +111,8 @@ def run_calls(
     elif workers == 1:
         yield "this process", ((i, function(*args), None) for i, args in enumerate(calls))
     else:
-        try:
-            import joblib  # noqa: F401  (loky reuses its workers from one fleet to the next)
-        except ImportError:
-            with concurrent.futures.ProcessPoolExecutor(workers) as pool:
-                with _futures(pool.submit, calls, function, concurrent.futures.as_completed) as done:
-                    yield f"{workers} processes", done
-        else:
-            with _joblib("loky", workers, function, calls) as done:
-                yield f"loky, {workers} processes", done
+        with _local_processes(workers, function, calls) as described:
+            yield described
 
 
 @contextlib.contextmanager
@@ -106,11 +122,17 @@ def _futures(submit: Callable[..., Any], calls: Sequence[tuple[Any, ...]], funct
     futures = {submit(function, *args, **options): i for i, args in enumerate(calls)}
 
     def done() -> Done:
-        for future in as_completed(list(futures)):
-            try:
-                yield futures[future], future.result(), None
-            except Exception as exc:  # the backend lost this call; the others go on
-                yield futures[future], None, exc
+        pending = dict(futures)
+        try:
+            for future in as_completed(list(futures)):
+                del pending[future]
+                try:
+                    yield futures[future], future.result(), None
+                except Exception as exc:  # the backend lost this call; the others go on
+                    yield futures[future], None, exc
+        except NoWorkersError as exc:  # nothing left to run them: each pending call fails
+            for index in pending.values():
+                yield index, None, exc
 
     try:
         yield done()
@@ -147,3 +169,101 @@ def _joblib(backend: str, workers: int, function: Callable[..., Any],
             parallel = Parallel(return_as="list")
         results = parallel(delayed(_indexed)(function, i, args) for i, args in enumerate(calls))
         yield ((index, value, None) for index, value in results)
+
+
+def dask_completed(client: Any, futures: Iterable[Any], timeout: float = NO_WORKER_TIMEOUT) -> Iterator[Any]:
+    """Dask ``futures`` as they complete, failing when the cluster has had no worker for ``timeout`` s.
+
+    Dask waits for a worker forever; a cluster that lost all of its workers would
+    hang the caller. Raises :class:`NoWorkersError` naming the scheduler.
+    """
+    from distributed import as_completed
+
+    pending = as_completed(list(futures))
+    alone_since: float | None = None
+    while not pending.is_empty():
+        batch = pending.next_batch(block=False)
+        yield from batch
+        if batch:
+            continue
+        if _has_workers(client):
+            alone_since = None
+        else:
+            alone_since = alone_since or time.monotonic()
+            if time.monotonic() - alone_since > timeout:
+                address = getattr(getattr(client, "scheduler", None), "address", "?")
+                raise NoWorkersError(f"the Dask cluster at {address} has had no worker for {timeout:g} s; "
+                                     f"{pending.count()} calls could not run: start workers, or run locally")
+        time.sleep(POLL_SECONDS)
+
+
+def _has_workers(client: Any) -> bool:
+    try:
+        info = client.scheduler_info(n_workers=1)  # lists at most one worker: enough to know
+    except TypeError:  # a Dask before the n_workers argument lists them all
+        info = client.scheduler_info()
+    return bool(info["workers"])
+
+
+def _process_pool(workers: int, reusable: bool) -> tuple[concurrent.futures.Executor, str, bool]:
+    """A pool, where it runs, and whether it is ours to shut down: loky's processes when
+    joblib is installed (the reusable pool keeps its workers from one fleet to the
+    next, so it outlives this one), else the standard library's."""
+    try:
+        import joblib  # noqa: F401  (loky comes with it; the extra may be absent)
+        from joblib.externals.loky import ProcessPoolExecutor, get_reusable_executor
+    except ImportError:
+        return concurrent.futures.ProcessPoolExecutor(workers), f"{workers} processes", True
+    if reusable:
+        return get_reusable_executor(max_workers=workers), f"loky, {workers} processes", False
+    return ProcessPoolExecutor(workers), f"loky, {workers} processes", True
+
+
+def _in_own_process(function: Callable[..., Any], args: tuple[Any, ...]) -> Any:
+    pool, _, _ = _process_pool(1, reusable=False)
+    with pool:
+        return pool.submit(function, *args).result()
+
+
+@contextlib.contextmanager
+def _local_processes(workers: int, function: Callable[..., Any],
+                     calls: Sequence[tuple[Any, ...]]) -> Iterator[tuple[str, Done]]:
+    """``workers`` processes; calls lost with a dead worker are retried once, each alone.
+
+    A dead worker breaks the whole pool, so the calls it took down with it (its own
+    and those still queued) are run again, each in a fresh process of its own: only
+    a call that kills its worker again fails, with :class:`LostWorkerError`.
+    """
+    pool, description, owned = _process_pool(workers, reusable=True)
+    lost: dict[int, BaseException] = {}
+
+    def first_try() -> Done:
+        with _futures(pool.submit, calls, function, concurrent.futures.as_completed) as done:
+            for index, value, error in done:
+                if error is None:
+                    yield index, value, None
+                else:
+                    lost[index] = error
+
+    def retried() -> Done:
+        with concurrent.futures.ThreadPoolExecutor(workers) as threads:
+            futures = {threads.submit(_in_own_process, function, calls[i]): i for i in sorted(lost)}
+            for future in concurrent.futures.as_completed(futures):
+                index = futures[future]
+                try:
+                    yield index, future.result(), None
+                except Exception as exc:
+                    yield index, None, LostWorkerError(
+                        f"its worker process died twice (killed, out of memory or crashed): "
+                        f"{type(exc).__name__}: {exc}; first: {type(lost[index]).__name__}: {lost[index]}")
+
+    def done() -> Done:
+        yield from first_try()
+        if lost:
+            yield from retried()
+
+    try:
+        yield description, done()
+    finally:
+        if owned:
+            pool.shutdown(wait=True, cancel_futures=True)

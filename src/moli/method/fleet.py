@@ -17,7 +17,6 @@ import inspect
 import os
 import sys
 import time
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Iterator, Mapping, Sequence, Union
@@ -29,9 +28,10 @@ from ..data.iodata import IOData
 from ..errors import DataError, OptionError
 from ..models.statespace import StateSpaceModel
 from ..validation.comparison import compare
-from .backends import run_calls
+from .backends import NO_WORKER_TIMEOUT, run_calls
 from .identification import IdentificationResult, identify
 from .options import IdentifyOptions
+from .warning_capture import thread_warnings
 
 __all__ = ["FleetEntry", "FleetResult", "identify_many"]
 
@@ -168,6 +168,7 @@ def identify_many(
     n_jobs: int | None = None,
     read_options: Mapping[str, Any] | None = None,
     progress: bool | Callable[[FleetEntry], None] = True,
+    no_worker_timeout: float = NO_WORKER_TIMEOUT,
 ) -> FleetResult:
     """Identify every record of a fleet, in parallel; one failure stops nothing.
 
@@ -196,6 +197,9 @@ def identify_many(
     progress : bool or callable, default True
         True shows a bar on stderr (when ``tqdm`` is installed); a callable is called
         with each :class:`FleetEntry` as it completes.
+    no_worker_timeout : float, default 60
+        Seconds a Dask cluster may have no worker at all; then the records still
+        pending fail with that reason (Dask itself would wait forever).
 
     Returns
     -------
@@ -233,7 +237,10 @@ def identify_many(
     calls = [(name, item, options or IdentifyOptions(), reading) for name, item in items]
     entries: dict[int, FleetEntry] = {}
     start = time.perf_counter()
-    with run_calls(_identify_one, calls, executor, n_jobs) as (backend, done), \
+    if isinstance(no_worker_timeout, bool) or not isinstance(no_worker_timeout, (int, float)) \
+            or not no_worker_timeout > 0:
+        raise OptionError(f"no_worker_timeout must be a positive number of seconds, got {no_worker_timeout!r}")
+    with run_calls(_identify_one, calls, executor, n_jobs, no_worker_timeout) as (backend, done), \
             _reporting(progress, len(calls)) as tell:
         for index, entry, lost in done:
             if lost is not None:  # the backend could not return it (a worker died, say)
@@ -335,8 +342,7 @@ def _identify_one(name: str, item: Item, options: IdentifyOptions,
     """One record, on a worker: read, identify, score; any failure becomes the entry's error."""
     start = time.perf_counter()
     result, fit, error = None, None, None
-    with warnings.catch_warnings(record=True) as caught, _blas_one_thread():
-        warnings.simplefilter("always")
+    with thread_warnings() as caught, _blas_one_thread():  # kept apart on thread backends too
         try:
             if isinstance(item, tuple):
                 estimation, validation = (_load(part, read_options) for part in item)

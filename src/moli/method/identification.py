@@ -17,7 +17,7 @@ from ..validation.comparison import compare, same_period
 from ..validation.feedback import feedback_check, usable_lags
 from .estimation import check_sample_count
 from .long_records import reestimate, search_window
-from .records import input_delays, long_segments, shifted_inputs
+from .records import check_reach, check_scales, input_delays, long_segments, shifted_inputs
 from .noise_model import estimate_noise_model
 from .options import IdentifyOptions
 from .refinement import MAX_RADIUS
@@ -188,7 +188,9 @@ def identify(
     OptionError
         An unknown or invalid option (before any work); the message names it.
     DataError
-        Records that are not :class:`IOData`, or whose channels do not match.
+        Records that are not :class:`IOData`, or whose channels do not match; a channel
+        above 1e150 or below 1e-150 in magnitude; an ``nmax`` or ``order`` beyond what
+        the record's samples can estimate (all before the search).
 
     Examples
     --------
@@ -206,6 +208,7 @@ def identify(
         raise DataError(f"data must be an IOData, got {type(data).__name__}")
     if progress is not None and not callable(progress):
         raise OptionError(f"progress must be a callable taking a PathStep, got {type(progress).__name__}")
+    check_scales(data, validation)
     if validation is None:
         if data.N * HOLDOUT_FRACTION < 1:
             raise DataError(f"data hold {data.N} sample{'s' if data.N != 1 else ''}: too few to hold out "
@@ -243,6 +246,7 @@ def identify(
     delays = input_delays(opts.delays, search_window(estimation, opts.search_samples)
                            if opts.delays == "auto" else estimation)
     check_sample_count(estimation.N - max(delays), (1,) * p, estimation.m, opts.feedthrough is not False)
+    check_reach(opts.nmax, opts.order, estimation.N - max(delays), p, estimation.m, opts.feedthrough is not False)
     screen(estimation, nmax, stacklevel=2)
     start = time.perf_counter()
     # a plant told to have feedthrough shows it at lag 0 like feedback: test later lags only

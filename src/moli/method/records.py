@@ -7,13 +7,34 @@ import warnings
 import numpy as np
 
 from ..data.iodata import IOData, longest_segment, merge
+from ..data.quality import check_scale
 from ..errors import DataError, DataQualityWarning, OptionError
 from ..models.delays import shift_inputs
 from ..validation.delays import first_response_lags
 from .estimation import check_sample_count
+from .rows import largest_order
 from .structure import Indices
 
-__all__ = ["long_segments", "shifted_inputs", "input_delays"]
+__all__ = ["long_segments", "shifted_inputs", "input_delays", "check_scales", "check_reach"]
+
+
+def check_scales(*records: IOData | None) -> None:
+    """Each record's channels must lie within what double precision identifies from
+    (:func:`moli.data.quality.check_scale`); None and other types are checked elsewhere."""
+    for record in records:
+        if isinstance(record, IOData):
+            check_scale(record)
+
+
+def check_reach(nmax: int | None, order: int | None, N: int, p: int, m: int, feedthrough: bool) -> None:
+    """An nmax or order asked for must be within what N samples can estimate (before the search)."""
+    reach = largest_order(N, p, m, feedthrough)
+    for name, value in (("nmax", nmax), ("order", order)):
+        if value is not None and value > reach:
+            raise DataError(
+                f"IdentifyOptions.{name} = {value} (moli fit --{name}) is beyond what {N} samples of "
+                f"{p} outputs and {m} inputs can estimate: the largest order is {reach}; lower it "
+                "or give a longer record")
 
 
 def long_segments(data: IOData, nmax: int, feedthrough: bool) -> IOData:

@@ -15,7 +15,8 @@ import numpy as np
 from ..errors import DataError
 from .structure import Indices, parameter_counts
 
-__all__ = ["regression_rows", "row_count", "row_breaks", "check_sample_count", "check_regression_rows"]
+__all__ = ["regression_rows", "row_count", "row_breaks", "samples_needed", "largest_order", "check_sample_count",
+           "check_regression_rows"]
 
 
 def regression_rows(z: np.ndarray, skip: int, starts: Sequence[int] = (0,)) -> np.ndarray:
@@ -42,12 +43,31 @@ def row_breaks(starts: Sequence[int], N: int, skip: int) -> tuple[int, ...]:
     return tuple(accumulate(counts))[:-1]
 
 
+def samples_needed(indices: Indices, m: int, feedthrough: bool = False) -> int:
+    """Samples the regression of the list ``indices`` needs: one row more than its largest
+    count of unknowns, after the filter transient of ``max(indices)`` samples."""
+    return int(parameter_counts(indices, m).max()) + (m if feedthrough else 0) + max(indices) + 1
+
+
+def largest_order(N: int, p: int, m: int, feedthrough: bool = False) -> int:
+    """The largest order whose cheapest list (the balanced one, longer indices first) ``N``
+    samples can estimate; ``p - 1`` when none can."""
+    def balanced(n: int) -> tuple[int, ...]:
+        q, r = divmod(n, p)
+        return (q + 1,) * r + (q,) * (p - r)
+
+    n = p - 1
+    while samples_needed(balanced(n + 1), m, feedthrough) <= N:
+        n += 1
+    return n
+
+
 def check_sample_count(N: int, indices: Indices, m: int, feedthrough: bool = False) -> None:
     """Raise :class:`DataError` unless each output's regression has more rows than unknowns.
 
     ``feedthrough``: the ``m`` current inputs join every output's regressors.
     """
-    need = int(parameter_counts(indices, m).max()) + (m if feedthrough else 0) + max(indices) + 1
+    need = samples_needed(indices, m, feedthrough)
     if N < need:
         raise DataError(
             f"too few samples: the list {list(indices)} with {m} inputs"

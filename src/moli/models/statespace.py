@@ -11,6 +11,7 @@ import numpy as np
 
 from .._version import __version__
 from ..data.arguments import integer, period, real_array
+from ..data.atomic_files import write_atomic
 from ..data.iodata import as_signal
 from ..errors import DataError, UnstableModelWarning
 from .bands import magnitude_bands, step_bands
@@ -275,7 +276,8 @@ class StateSpaceModel(Dimensions):
         """Write the model to a JSON file (read it back with :func:`moli.load_model`)."""
         if not isinstance(path, (str, Path)):
             raise DataError(f"path must be a str or Path, got {type(path).__name__}")
-        Path(path).write_text(json.dumps(self.to_dict(), indent=1))
+        # whole or not at all: a failed or interrupted save keeps the previous file
+        write_atomic(path, json.dumps(self.to_dict(), indent=1))
 
     # Delays, frequency response and continuous time (docs/diagnostics.md). The delays
     # are set by with_input_delays on a copy, so the constructor keeps its signature.

@@ -39,7 +39,7 @@ def model_from_dict(content: dict[str, Any]) -> StateSpaceModel:
         raise ModelFileError(f"model file lacks the field {exc}") from None
     except DataError as exc:
         raise ModelFileError(f"model file is inconsistent: {exc}") from None
-    except (TypeError, ValueError) as exc:  # a field of a JSON type no check foresaw
+    except (TypeError, ValueError, OverflowError) as exc:  # a field no check foresaw: text, 10**400
         raise ModelFileError(f"model file is inconsistent: {exc}") from None
 
 
@@ -62,6 +62,6 @@ def load_model(path: str | Path) -> StateSpaceModel:
         raise ModelFileError(f"no model file at {path}") from None
     except OSError as exc:  # a folder, no permission
         raise ModelFileError(f"cannot read the model file {path}: {exc.strerror}") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+    except (ValueError, RecursionError) as exc:  # bad JSON, bad UTF-8, nesting or integers past Python's limits
         raise ModelFileError(f"{path} is not a JSON model file: {exc}") from None
     return model_from_dict(content)

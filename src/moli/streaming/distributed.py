@@ -31,6 +31,7 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from ..errors import DataError, OptionError
+from ..method.backends import dask_completed
 from .chunked import ChunkedEstimator
 
 __all__ = ["estimate_chunks"]
@@ -89,6 +90,9 @@ def estimate_chunks(
     DataError
         ``chunks`` is empty or holds something that is not callable; a chunk whose
         samples do not match ``p`` and ``m``.
+    moli.method.backends.NoWorkersError
+        The cluster had no worker for ``NO_WORKER_TIMEOUT`` seconds (Dask itself
+        would wait forever).
 
     Examples
     --------
@@ -143,7 +147,11 @@ class _Runner:
         return self.client.submit(function, *args, pure=False)
 
     def gather(self, values: list[Any]) -> list[Any]:
-        return values if self.client is None else self.client.gather(values)
+        if self.client is None:
+            return values
+        for _ in dask_completed(self.client, values):  # fails, not hangs, on a cluster without workers
+            pass
+        return self.client.gather(values)
 
 
 def _samples(source: Chunk | tuple[Any, Any]) -> tuple[Any, Any]:

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from ..data.display import figure_label
 from ..data.iodata import IOData, require_one_segment
 from ..errors import DataError, OptionError
 from ..models.statespace import StateSpaceModel
@@ -110,12 +111,12 @@ class ResidualAnalysis:
         fig.suptitle(f"residual analysis ({kind}), {self.confidence:.0%} bands", fontsize=10)
         own = np.arange(self.lags + 1)
         both = np.arange(-self.lags, self.lags + 1)
-        for i, name in enumerate(self.output_names):
+        for i, name in enumerate(map(figure_label, self.output_names)):
             panels = [(axes[i, 0], own, self.autocorrelation[i], self.whiteness_bound,
                        f"{name}: whiteness p = {self.whiteness_pvalue[i]:.2g}")]
             panels += [(axes[i, j + 1], both, self.cross_correlation[i, j], self.cross_bound[i, j],
                         f"{name} vs {u}: p = {self.independence_pvalue[i, j]:.2g}")
-                       for j, u in enumerate(self.input_names)]
+                       for j, u in enumerate(map(figure_label, self.input_names))]
             for ax, lag, values, bound, title in panels:
                 ax.axhspan(-bound, bound, color="C0", alpha=0.15, linewidth=0)
                 ax.vlines(lag, 0.0, values, color="C0", linewidth=1.2)

@@ -1,0 +1,70 @@
+"""Names read from files are data: how they are shown in figures, consoles and spreadsheets.
+
+A channel name comes from a file's header and may hold anything: matplotlib mathtext
+(``$\\frac{a}$``), control characters that forge console lines, a megabyte of text, or
+a leading ``=`` that a spreadsheet runs as a formula. Each place that shows a name
+passes it through one of these functions first.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+__all__ = ["figure_label", "console_text", "spreadsheet_cell", "FIGURE_LABEL_CHARS"]
+
+# Longer names are cut in figures: a title or axis label is a few inches wide, and
+# matplotlib lays out text in time that grows with its length.
+FIGURE_LABEL_CHARS = 40
+# Cells starting with these run as formulas in spreadsheet programs (OWASP, CSV injection).
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
+
+
+def _shortened(text: str, limit: int) -> str:
+    return text if len(text) <= limit else text[: limit - 1] + "…"
+
+
+def console_text(text: Any, limit: int | None = None) -> str:
+    """``text`` with control characters written as escapes, so it stays on its own line.
+
+    Examples
+    --------
+    >>> console_text("flow\\nfake line")
+    'flow\\\\nfake line'
+    """
+    shown = "".join(ch if ch.isprintable() or ch == " " else repr(ch)[1:-1] for ch in str(text))
+    return shown if limit is None else _shortened(shown, limit)
+
+
+def figure_label(text: Any, limit: int = FIGURE_LABEL_CHARS) -> str:
+    """``text`` as matplotlib draws it literally: ``$`` escaped (no mathtext), shortened.
+
+    Examples
+    --------
+    >>> figure_label("cost $a$")
+    'cost \\\\$a\\\\$'
+    """
+    return console_text(_shortened(str(text), limit)).replace("$", r"\$")
+
+
+def spreadsheet_cell(value: Any) -> Any:
+    """A CSV cell that a spreadsheet shows as text, never runs as a formula.
+
+    Text starting with ``=``, ``+``, ``-``, ``@``, a tab or a carriage return gets a
+    leading single quote (the OWASP advice on CSV injection); numbers, and text
+    that is a plain number such as ``-1.5``, are kept as they are.
+
+    Examples
+    --------
+    >>> spreadsheet_cell("=HYPERLINK(1)"), spreadsheet_cell("-2.5"), spreadsheet_cell(-2.5)
+    ("'=HYPERLINK(1)", '-2.5', -2.5)
+    """
+    if not isinstance(value, str) or not value.startswith(FORMULA_STARTS):
+        return value
+    try:
+        if math.isfinite(float(value)) and value.strip() == value:
+            return value
+    except ValueError:
+        pass
+    return "'" + value
+
