@@ -98,8 +98,8 @@ def select_order_refined(
     validation errors, the orders run up to the best one. Here each order, from the
     lowest, is judged by the best of its lists' least-squares models and their
     refinements (consistent under output noise, docs/method.md §12), and the paired test
-    of :func:`select_order_paired` compares it with the best least-squares model of the
-    path, on the same validation samples. The first order that passes is kept; none
+    of :func:`select_order_paired` compares it with the best model known, the best
+    least-squares model of the path or its refinement, on the same validation samples. The first order that passes is kept; none
     passes before the best model's own order, which is then kept.
 
     Parameters
@@ -128,7 +128,11 @@ def select_order_refined(
     """
     eligible = [i for i, st in enumerate(path) if st.stable] or list(range(len(path)))
     best = max(eligible, key=lambda i: path[i].mean_vaf)
-    reference = _error_shares(path[best].model, validation, x0)
+    # the reference is the best model known: the best least-squares model or its refinement
+    # (under strong noise the least squares of every order are poor, and a weak reference
+    # would let an order through that the refinement of the best order beats by far)
+    top = max([path[best], *(st for st in refine(path[best]) if st.stable)], key=lambda st: st.mean_vaf)
+    reference = _error_shares(top.model, validation, x0)
     for i in range(best + 1):
         pool = [(candidate, step) for step in lists_at(i) for candidate in (step, *refine(step))
                 if candidate.stable]
