@@ -20,7 +20,7 @@ from ._version import __version__
 from .errors import (
     ClosedLoopWarning, DataError, DataQualityWarning, FilterError, IllConditionedWarning,
     IrregularSamplingWarning, ModelFileError, MoliError, OptionError, OrderBoundWarning,
-    SamplingPeriodWarning, StructureError, UnstableModelWarning,
+    SamplingPeriodWarning, ShortValidationWarning, StructureError, UnstableModelWarning,
 )
 
 # public name -> the subpackage that defines it
@@ -50,6 +50,7 @@ __all__ = [
     "__version__", "MoliError", "DataError", "FilterError", "IllConditionedWarning",
     "ModelFileError", "OptionError", "StructureError", "UnstableModelWarning", "DataQualityWarning",
     "OrderBoundWarning", "ClosedLoopWarning", "IrregularSamplingWarning", "SamplingPeriodWarning",
+    "ShortValidationWarning",
     *_HOMES, *_SUBPACKAGES,
 ]
 

@@ -14,7 +14,7 @@ __all__ = [
     "MoliError", "DataError", "StructureError", "FilterError", "OptionError", "ModelFileError",
     "ControlDesignError", "wrong_type",
     "UnstableModelWarning", "IllConditionedWarning", "DataQualityWarning", "OrderBoundWarning",
-    "ClosedLoopWarning", "IrregularSamplingWarning", "SamplingPeriodWarning",
+    "ClosedLoopWarning", "IrregularSamplingWarning", "SamplingPeriodWarning", "ShortValidationWarning",
 ]
 
 
@@ -85,6 +85,10 @@ class DataQualityWarning(UserWarning):
 
 class OrderBoundWarning(UserWarning):
     """The selected order is the largest the structure search was allowed to reach."""
+
+
+class ShortValidationWarning(UserWarning):
+    """The validation part that chose the order is too short to tell the orders apart."""
 
 
 class ClosedLoopWarning(UserWarning):

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import Any, Callable
 
 import numpy as np
@@ -16,14 +16,17 @@ from ..models.statespace import StateSpaceModel
 from ..validation.comparison import compare, same_period
 from ..validation.feedback import feedback_check, usable_lags
 from .estimation import check_sample_count
+from .interruption import post_path_phases
 from .long_records import reestimate, search_window
 from .records import check_reach, check_scales, input_delays, long_segments, shifted_inputs
 from .noise_model import estimate_noise_model
 from .options import IdentifyOptions
 from .refinement import MAX_RADIUS
 from .refinement import refine_each
+from .result import IdentificationResult
 from .order_rules import select_order, select_order_paired, select_order_refined, siblings
 from .search import PathStep, StructureSearch, greedy_path
+from .selection_check import warn_if_short_selection
 from .tuning import default_omega
 from .uncertainty import estimate_covariance
 
@@ -36,119 +39,6 @@ HOLDOUT_FRACTION = 0.3
 AUTO_RADIUS_SPAN = 10.0
 # Samples of the estimation record the feedback check looks at.
 FEEDBACK_SAMPLES = 3000
-
-
-@dataclass
-class IdentificationResult:
-    """What :func:`identify` found.
-
-    Attributes
-    ----------
-    model : StateSpaceModel
-        The selected model (acts on deviations from ``model.u_offset``/``y_offset``).
-    path : list of PathStep
-        One record per order along the greedy path.
-    selected_index : int
-        Position of the selected model in ``path``.
-    estimation, validation : IOData
-        The centred records used.
-    validation_source : str
-        Where the validation data came from (given, or held out from the tail).
-    options : IdentifyOptions
-        The options the search ran with, as given (also in ``model.info["options"]``).
-    nmax : int
-        The order bound the path ran to (``options.nmax`` or its default).
-    omega : ndarray, shape (R, 2)
-        The filter candidates searched (``options.omega`` or the default grid).
-    max_radius : float or None
-        The stability bound applied (``options.max_radius``, "auto" resolved).
-    seconds : float
-        Total wall time.
-    interrupted : bool
-        True when the search was stopped by Ctrl-C; the path holds what was done.
-    """
-
-    model: StateSpaceModel
-    path: list[PathStep]
-    selected_index: int
-    estimation: IOData = field(repr=False)
-    validation: IOData = field(repr=False)
-    validation_source: str
-    options: IdentifyOptions
-    nmax: int
-    omega: np.ndarray = field(repr=False)
-    max_radius: float | None
-    seconds: float
-    interrupted: bool = False
-
-    @property
-    def selected(self) -> PathStep:
-        """The path step of the selected model."""
-        return self.path[self.selected_index]
-
-    @property
-    def selection(self) -> str:
-        """How the selected model was chosen, in words."""
-        opts = self.options
-        if opts.order is not None and self.selected.order == opts.order:
-            return f"the fixed order n = {opts.order} (IdentifyOptions.order)"
-        if opts.order_rule == "paired" or (opts.order_rule == "refined" and self.interrupted):
-            return "lowest order within one paired standard error of the best validation error"
-        if opts.order_rule == "refined":
-            return ("lowest order whose best refined list is within one paired standard error of the "
-                    "best validation error")
-        return f"lowest order within {opts.order_tolerance:g} point of the best mean validation VAF"
-
-    def summary(self) -> str:
-        """A readable table of the greedy path and the selection."""
-        names = self.estimation.output_names
-        opts = self.options
-        # long channel names (e.g. DaISy's) would break the columns: number them and list them
-        head = f"{'n':>3}  {'indices':<16}{'J':>8}  " + "".join(f"{f'VAF y{i + 1}':>11}" for i in range(len(names)))
-        head += f"{'mean VAF':>10}{'wc':>9}{'zeta':>7}{'stable':>8}{'sec':>8}"
-        lines = [
-            f"moli identification: {self.estimation.p} outputs, {self.estimation.m} inputs, "
-            f"Ts = {self.estimation.Ts:g}",
-            f"estimation: {self.estimation.N} samples{_in_segments(self.estimation)}" + (
-                f" (searched on the first {searched})" if (searched := self.model.info.get("search_samples")) else "")
-            + f"; validation: {self.validation.N} samples{_in_segments(self.validation)} ({self.validation_source})",
-            f"VAF: validation, simulation from {self.options.x0} initial state, percent"
-            + "".join(f"; y{i + 1} = {nm}" for i, nm in enumerate(names) if nm != f"y{i + 1}"),
-            f"options: tuning {opts.tuning}, s = {opts.s:g}, feedthrough {opts.feedthrough}, "
-            f"max pole radius {'none' if self.max_radius is None else f'{self.max_radius:.6g}'}, "
-            f"J trend degree {opts.trend_degree}, per-output filters {opts.output_filters}, "
-            f"refinement {opts.refine}"
-            + (f", input delays {list(self.model.input_delays)}" if any(self.model.input_delays) else ""),
-            head,
-        ]
-        for i, st in enumerate(self.path):
-            mark = "  <- selected" if i == self.selected_index else ""
-            lines.append(
-                f"{st.order:>3}  {str(list(st.indices)):<16}{st.J:>8.4f}  "
-                + "".join(f"{v:>11.2f}" for v in st.vaf)
-                + f"{st.mean_vaf:>10.2f}{st.eta[0]:>9.4g}{st.eta[1]:>7.3f}{str(st.stable):>8}"
-                + f"{st.seconds:>8.3f}{mark}"
-            )
-        lines.append(
-            f"selected: indices {list(self.selected.indices)} (n = {self.selected.order}), "
-            f"{self.selection}; total {self.seconds:.2f} s"
-            + (" (interrupted: partial path)" if self.interrupted else "")
-        )
-        if self.selected.output_etas is not None:
-            lines.append("its filters per output (wc, zeta): " + ", ".join(
-                f"y{j + 1} ({wc:.4g}, {zeta:.3g})" for j, (wc, zeta) in enumerate(self.selected.output_etas)
-            ))
-        noise = self.model.info.get("noise_model", {})
-        if self.model.K is not None:
-            std = ", ".join(f"{v:.4g}" for v in np.sqrt(np.diag(self.model.noise_cov)))
-            lines.append(f"noise model: Kalman gain K from the estimation residuals, innovation std {std}")
-        elif noise.get("method") == "none":
-            lines.append(f"noise model: none ({noise['reason']})")
-        return "\n".join(lines)
-
-
-def _in_segments(data: IOData) -> str:
-    return f" in {data.n_segments} segments" if data.n_segments > 1 else ""
 
 
 def identify(
@@ -298,44 +188,63 @@ def identify(
         return [done[id(step.model), r] for r in chosen]
 
     unrefined = list(path)
-    if opts.refine == "path" and not interrupted:
-        path[:] = [refined(st)[0] for st in path]
-    selected = _fixed_order(path, opts.order, interrupted)
-    if selected is None and opts.order_rule == "refined" and not interrupted:
-        selected, chosen = select_order_refined(path, lambda i: [path[i], *siblings(search, path, i)],
-                                                refined, scored, opts.x0)
-        path[selected] = unrefined[selected] = chosen
-    elif selected is None and opts.order_rule in ("paired", "refined"):
+    # Ctrl-C after the path keeps the best complete model so far (moli.method.interruption)
+    phases = post_path_phases(opts, long_record=searched is not fitted)
+    stage, skipped = phases[0], ()
+    try:
+        if opts.refine == "path" and not interrupted:
+            path[:] = [refined(st)[0] for st in path]
+        selected = _fixed_order(path, opts.order, interrupted)
+        if selected is None and opts.order_rule == "refined" and not interrupted:
+            stage = "order rule's refinements"
+            selected, chosen = select_order_refined(path, lambda i: [path[i], *siblings(search, path, i)],
+                                                    refined, scored, opts.x0)
+            path[selected] = unrefined[selected] = chosen
+    except KeyboardInterrupt:   # the path as it was, and the order rule of an interrupted search
+        skipped, selected = tuple(phases[phases.index(stage):]), _fixed_order(path, opts.order, True)
+    if selected is None and opts.order_rule in ("paired", "refined"):
         selected = select_order_paired(path, scored, opts.x0)
     elif selected is None:
         selected = select_order(path, opts.order_tolerance)
-    if searched is not fitted:      # docs/method.md §15: the selected list on the whole record
-        path[selected] = reestimate(unrefined[selected], fitted, scored, opts.s, opts.feedthrough, opts.x0,
-                                    opts.regularization)
-        path[selected].model.info["search_samples"] = searched.N
-        if opts.refine == "path":
-            path[selected] = refined(path[selected])[0]
-    if opts.refine == "selected":
-        path[selected] = refined(path[selected])[0]
-    elif opts.refine == "guarded":
-        # each ridge from the unrefined model, and the free refinement of each other list
-        # the greedy step compared at this order (docs/method.md §12): the best on validation stays
-        candidates = refined(path[selected], ridges)
-        if not interrupted:
-            for sibling in siblings(search, path, selected):
-                candidates += refined(sibling, ridges[:1])
-        for candidate in candidates:
-            if candidate.mean_vaf > path[selected].mean_vaf:
-                path[selected] = candidate
-    # covariance (of the problem that gave the model: a refined one's on the search window, the
-    # least squares' on the whole record) and noise model (search window) of the delay-free
-    # model, on the shifted record
-    kept = path[selected].model
-    path[selected] = replace(path[selected], model=_attached(
-        estimate_covariance, "covariance", kept, searched if kept.info.get("refined") else fitted))
-    if opts.noise_model:
-        path[selected] = replace(path[selected], model=_attached(estimate_noise_model, "noise_model",
-                                                                 path[selected].model, searched))
+    if not skipped:
+        try:
+            if searched is not fitted:      # docs/method.md §15: the selected list on the whole record
+                stage = "re-estimation on the whole record"
+                path[selected] = reestimate(unrefined[selected], fitted, scored, opts.s, opts.feedthrough, opts.x0,
+                                            opts.regularization)
+                path[selected].model.info["search_samples"] = searched.N
+                if opts.refine == "path":
+                    stage = "refinement"
+                    path[selected] = refined(path[selected])[0]
+            if opts.refine == "selected":
+                stage = "refinement"
+                path[selected] = refined(path[selected])[0]
+            elif opts.refine == "guarded":
+                stage = "refinement"
+                # each ridge from the unrefined model, and the free refinement of each other list
+                # the greedy step compared at this order (docs/method.md §12): the best on validation stays
+                candidates = refined(path[selected], ridges)
+                if not interrupted:
+                    for sibling in siblings(search, path, selected):
+                        candidates += refined(sibling, ridges[:1])
+                for candidate in candidates:
+                    if candidate.mean_vaf > path[selected].mean_vaf:
+                        path[selected] = candidate
+            # covariance (of the problem that gave the model: a refined one's on the search window, the
+            # least squares' on the whole record) and noise model (search window) of the delay-free
+            # model, on the shifted record
+            stage = "covariance"
+            kept = path[selected].model
+            path[selected] = replace(path[selected], model=_attached(
+                estimate_covariance, "covariance", kept, searched if kept.info.get("refined") else fitted))
+            if opts.noise_model:
+                stage = "noise model"
+                path[selected] = replace(path[selected], model=_attached(estimate_noise_model, "noise_model",
+                                                                         path[selected].model, searched))
+        except KeyboardInterrupt:
+            skipped = tuple(phases[phases.index(stage):])
+    if skipped:
+        path[selected].model.info["interrupted"] = {"skipped": list(skipped)}
     if any(delays):
         for step in path:
             step.model = step.model.with_input_delays(delays)
@@ -348,10 +257,12 @@ def identify(
             f"higher order may fit better; raise it with nmax=... (moli fit --nmax)",
             OrderBoundWarning, stacklevel=2,
         )
+    warn_if_short_selection(path, scored.N, scored.m, stacklevel=2)
     return IdentificationResult(
         model=model, path=path, selected_index=selected, estimation=estimation,
         validation=validation, validation_source=source, options=opts, nmax=nmax, omega=grid,
-        max_radius=radius, seconds=time.perf_counter() - start, interrupted=interrupted,
+        max_radius=radius, seconds=time.perf_counter() - start, interrupted=interrupted or bool(skipped),
+        skipped=skipped,
     )
 
 

@@ -1,0 +1,77 @@
+"""Whether the validation part that chose the order was long enough to choose it.
+
+The order rule ranks the path's models by their validation scores. A record of a few
+dozen samples still yields a path and a "best" order, and nothing in the scores says
+that they rest on too few samples: :func:`warn_if_short_selection` says so.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Sequence
+
+from ..errors import ShortValidationWarning
+from .rows import parameter_counts
+from .search import PathStep
+
+__all__ = ["SAMPLES_PER_PARAMETER", "selection_samples_needed", "warn_if_short_selection"]
+
+# A rule of thumb, not a test: the order rule compares validation VAFs that differ by a
+# point or two between neighbouring orders, and a VAF scored on N samples moves by about
+# (100 - VAF) * sqrt(2 / N) points from one noise realisation to the next (the relative
+# standard error of a variance from N white samples), i.e. 2.5 points at VAF 80 and
+# N = 130. Ten samples per parameter of the largest model compared (per output, where
+# each least-squares problem lives) keeps that below the differences the rule acts on
+# for the usual path (3x3, nmax 10: about 260 samples); the common least-squares rule
+# of ten observations per unknown says the same.
+SAMPLES_PER_PARAMETER = 10
+
+
+def selection_samples_needed(path: Sequence[PathStep], m: int) -> int:
+    """Validation samples the order rule needs to tell the path's orders apart.
+
+    Parameters
+    ----------
+    path : sequence of PathStep
+        The greedy path (its lists of observability indices).
+    m : int
+        Number of inputs.
+
+    Returns
+    -------
+    int
+        ``SAMPLES_PER_PARAMETER`` times the largest per-output parameter count on the path.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> selection_samples_needed([SimpleNamespace(indices=(1, 1)), SimpleNamespace(indices=(2, 1))], 1)
+    60
+    """
+    most = max(int(parameter_counts(step.indices, m).max()) for step in path)
+    return SAMPLES_PER_PARAMETER * most
+
+
+def warn_if_short_selection(path: Sequence[PathStep], validation_samples: int, m: int,
+                            stacklevel: int = 2) -> None:
+    """Issue a :class:`ShortValidationWarning` when the order was chosen on too few samples.
+
+    Parameters
+    ----------
+    path : sequence of PathStep
+    validation_samples : int
+        Samples of the validation part that scored the path.
+    m : int
+        Number of inputs.
+    stacklevel : int
+        As for :func:`warnings.warn`, counted from the caller.
+    """
+    need = selection_samples_needed(path, m)
+    if len(path) > 1 and validation_samples < need:
+        warnings.warn(
+            f"the order was chosen on {validation_samples} validation samples, fewer than the "
+            f"{need} that tell the path's orders apart ({SAMPLES_PER_PARAMETER} per parameter of "
+            f"its largest model, {need // SAMPLES_PER_PARAMETER} per output): treat the order as "
+            "a guess; give a longer record or more validation data, or fix the order (--order)",
+            ShortValidationWarning, stacklevel=stacklevel + 1,
+        )

@@ -1,0 +1,75 @@
+"""Ctrl-C after the greedy path, and records too short to choose an order."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+import moli
+from moli.method import identification
+from moli.method.selection_check import SAMPLES_PER_PARAMETER, selection_samples_needed
+
+NMAX = 4
+
+
+@pytest.fixture(scope="module")
+def halves() -> tuple[moli.IOData, moli.IOData]:
+    return moli.example_data(N=500, seed=2).split(300)
+
+
+def interrupt(*args, **kwargs):
+    raise KeyboardInterrupt
+
+
+def test_ctrl_c_in_the_covariance_keeps_the_refined_model(halves, monkeypatch):
+    whole = moli.identify(*halves, nmax=NMAX)
+    monkeypatch.setattr(identification, "estimate_covariance", interrupt)
+    cut = moli.identify(*halves, nmax=NMAX)
+    assert cut.interrupted and cut.skipped == ("covariance", "noise model")
+    assert cut.model.cov_factor is None and cut.model.K is None
+    assert cut.model.info["interrupted"] == {"skipped": ["covariance", "noise model"]}
+    # the same computation up to the cut: the same model to the bit
+    np.testing.assert_array_equal(cut.model.A, whole.model.A)
+    assert "interrupted: skipped covariance, noise model" in cut.summary()
+
+
+def test_ctrl_c_in_the_refinement_keeps_the_unrefined_model(halves, monkeypatch):
+    unrefined = moli.identify(*halves, nmax=NMAX, refine="none")
+    monkeypatch.setattr(identification, "refine_each", interrupt)
+    cut = moli.identify(*halves, nmax=NMAX)
+    assert cut.skipped == ("refinement", "covariance", "noise model")
+    assert cut.selected.indices == unrefined.selected.indices
+    np.testing.assert_array_equal(cut.model.A, unrefined.model.A)
+
+
+def test_ctrl_c_while_refining_the_path_selects_on_the_unrefined_path(halves, monkeypatch):
+    unrefined = moli.identify(*halves, nmax=NMAX, refine="none")
+    monkeypatch.setattr(identification, "refine_each", interrupt)
+    cut = moli.identify(*halves, nmax=NMAX, refine="path")
+    assert cut.skipped == ("refinement of the path", "covariance", "noise model")
+    assert [st.mean_vaf for st in cut.path] == [st.mean_vaf for st in unrefined.path]
+
+
+def test_a_49_sample_record_warns_that_the_order_is_a_guess():
+    with pytest.warns(moli.ShortValidationWarning, match="chosen on 15 validation samples"):
+        result = moli.identify(moli.example_data(N=49, seed=1))
+    assert "on 15 validation samples" in result.summary()
+
+
+def test_a_long_enough_validation_part_does_not_warn(halves):
+    est, val = halves
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = moli.identify(est, val, nmax=NMAX, refine="none", noise_model=False)
+    assert selection_samples_needed(result.path, est.m) <= val.N   # 120 <= 200: the case under test
+    assert not [w for w in caught if issubclass(w.category, moli.ShortValidationWarning)]
+
+
+def test_samples_needed_is_ten_per_parameter_of_the_largest_model():
+    # (2, 1, 1) with 3 inputs: output 1 has 2 * 3 past outputs and 2 * 3 past inputs = 12
+    # parameters (moli.method.rows.parameter_counts), the most of the path
+    from types import SimpleNamespace
+    path = [SimpleNamespace(indices=(1, 1, 1)), SimpleNamespace(indices=(2, 1, 1))]
+    assert selection_samples_needed(path, 3) == SAMPLES_PER_PARAMETER * 12
