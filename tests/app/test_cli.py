@@ -213,7 +213,7 @@ def test_fit_bad_options_file(tmp_path, csv_file, content, extra, message):
 @pytest.mark.parametrize(
     "args, message",
     [
-        (["fit"], "give either a DATA file or --daisy NAME"),
+        (["fit"], "give either DATA files or --daisy NAME"),
         (["fit", "--daisy", "no-such-set"], "no-such-set"),
         (["fit", "FILE", "--inputs", INPUTS, "--outputs", OUTPUTS, "--validation", "1.5"],
          "--validation must be a fraction in (0, 1)"),

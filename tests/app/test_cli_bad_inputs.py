@@ -61,7 +61,7 @@ CASES = [
     (["fit", "good.csv", *IO, "--x0", "foo"], "'--x0': 'foo' is not one of"),
     (["fit", "good.csv", *IO, "--bogus"], "No such option '--bogus'"),
     (["fit", "good.csv", "--inputs", "u9", "--outputs", "y1"], "has no column 'u9'"),
-    (["fit"], "give either a DATA file or --daisy NAME"),
+    (["fit"], "give either DATA files or --daisy NAME"),
     (["validate", "cut.json", "good.csv"], "is not a JSON model file"),
     (["validate", "list.json", "good.csv"], "holds a JSON list"),
     (["validate", "text_matrix.json", "good.csv"], "A must be an array of real"),

@@ -56,7 +56,8 @@ def test_report_files_exist_and_html_embeds_every_png(written, result):
     assert datetime.strptime(facts["written (UTC)"], "%Y-%m-%d %H:%M:%S").year >= 2024
     for name, value in result.options.to_dict().items():
         assert facts[name].startswith(html.escape(str(value))), name
-    assert facts["selected by"] == html.escape(result.selection)
+    assert facts["selected by"].startswith(html.escape(result.selection))
+    assert f"on {result.validation.N} validation samples" in facts["selected by"]
     # the scores: formulas, simulation rather than prediction, and why VAF stops at 0
     for words in ("clipped at 0", "<b>simulation</b>", "not a one-step-ahead prediction",
                   "one diverging output cannot", "a negative fit", validation_caption(result)):

@@ -22,10 +22,10 @@ from .._version import __version__
 from ..data.atomic_files import check_output_file, check_output_folder
 from ..data.daisy import daisy_path, load_daisy
 from ..data.display import console_text
-from ..data.files import file_sha256, fingerprint, read_data
+from ..data.files import file_sha256, fingerprint
 from ..data.iodata import IOData
 from ..data.outliers import flag_outliers, remove_outliers
-from ..errors import DataError, IrregularSamplingWarning, MoliError, OptionError, SamplingPeriodWarning
+from ..errors import DataError, MoliError, OptionError
 from ..method.identification import IdentificationResult, identify
 from ..method.options import PRESETS, IdentifyOptions
 from ..method.search import PathStep, StructureSearch, exhaustive
@@ -36,6 +36,8 @@ from ..validation.comparison import X0_CHOICES, compare
 from .figures import measured_vs_simulated, save_figure
 from .fleet_cli import fleet_commands
 from .fleet_report import SCORES
+from .outputs import REPORT_FILE, refuse_overwrite, run_folder
+from .reading import RunWarnings, names, read_records, reading_options
 from .report import write_report
 
 __all__ = ["cli", "main", "describe", "options_from_flags"]
@@ -46,8 +48,6 @@ INTERRUPTED = 130
 # C(n-1, p-1) grows fast, and each list costs one filter search.
 MAX_LISTS_PER_ORDER = 30
 DEMO_NMAX = 6
-REPORT_FILES = ("report.html",)
-
 
 class _Group(click.Group):
     """Turns bad input into one line on stderr and exit code 2.
@@ -96,55 +96,6 @@ class _Progress:
         self.bar.update()
 
 
-def _names(text: str | None) -> list[str] | None:
-    return None if text is None else [name.strip() for name in text.split(",") if name.strip()]
-
-
-def _echo_warnings(caught: list[warnings.WarningMessage]) -> None:
-    for message in dict.fromkeys(str(w.message) for w in caught):
-        click.echo(f"moli: warning: {console_text(message)}", err=True)
-
-
-def _reading_options(command: Callable[..., Any]) -> Callable[..., Any]:
-    """The flags that say how to read a data file (every format of read_data)."""
-    flags = [
-        click.option("--delimiter", help="Column separator of a text file: one character, or "
-                     "tab or whitespace [default: sniffed]."),
-        click.option("--decimal", type=click.Choice([".", ","]),
-                     help="Decimal mark of a text file [default: sniffed]."),
-        click.option("--encoding", help="Encoding of a text file, e.g. utf-8, utf-16, cp1252 "
-                     "[default: detected]."),
-        click.option("--sheet", help="Sheet of an .xlsx workbook: its name or 0-based position "
-                     "[default: the first]."),
-        click.option("--time-column", help="Column of time stamps [default: found by its name "
-                     "(time, Time [s], Zeit...) or content, docs/data.md]."),
-        click.option("--time-format", help="strftime format of date-times that are not ISO 8601, "
-                     "e.g. '%d/%m/%Y %H:%M:%S'."),
-        click.option("--no-time-column", is_flag=True, help="Ignore time columns."),
-    ]
-    for flag in reversed(flags):
-        command = flag(command)
-    return command
-
-
-def _read(path: Path, inputs: list[str] | None, outputs: list[str] | None, ts: float | None,
-          reading: dict[str, Any]) -> IOData:
-    """read_data with the reading flags; irregular time steps and where Ts came from become
-    warning lines."""
-    reading = dict(reading)
-    if reading.pop("no_time_column"):
-        if reading["time_column"] is not None:
-            raise OptionError("give --time-column NAME or --no-time-column, not both")
-        reading["time_column"] = False
-    with warnings.catch_warnings(record=True) as caught:
-        read = (IrregularSamplingWarning, SamplingPeriodWarning)
-        for category in read:
-            warnings.simplefilter("always", category)
-        data = read_data(path, inputs, outputs, ts, **reading)
-    _echo_warnings([w for w in caught if issubclass(w.category, read)])
-    return data
-
-
 def options_from_flags(options_file: Path | None, preset: str | None, **flags: Any) -> IdentifyOptions:
     """The one place where command-line flags become :class:`IdentifyOptions`.
 
@@ -168,7 +119,8 @@ def options_from_flags(options_file: Path | None, preset: str | None, **flags: A
     return IdentifyOptions.from_dict(content).replace(**given)
 
 
-def _identify(data: IOData, fraction: float, options: IdentifyOptions) -> IdentificationResult:
+def _identify(data: IOData, fraction: float, options: IdentifyOptions, noted: RunWarnings,
+              last_run: str | None = None) -> IdentificationResult:
     """Split off the validation tail and run the greedy search with a progress bar."""
     if not 0.0 < fraction < 1.0:
         raise DataError(f"--validation must be a fraction in (0, 1), got {fraction}")
@@ -181,13 +133,20 @@ def _identify(data: IOData, fraction: float, options: IdentifyOptions) -> Identi
         finally:
             if progress.bar is not None:
                 progress.bar.close()
-    _echo_warnings(caught)
-    if result.interrupted:
+    noted.add(caught)
+    # identify was handed the tail as given validation data: say where it really came from
+    result.validation_source = f"held out: last {fraction:.0%} of the record" + (
+        f", from {last_run}" if last_run else "")
+    if result.skipped:
+        click.echo(f"moli: interrupted; keeping the model before the {result.skipped[0]} "
+                   f"(skipped: {', '.join(result.skipped)})", err=True)
+    elif result.interrupted:
         click.echo(f"moli: search interrupted after {len(result.path)} orders; keeping the best "
                    "model found so far", err=True)
     result.model.info.update({
         "data": {"sha256": fingerprint(estimation), "N": estimation.N,
-                 "validation_N": validation.N, "validation_fraction": fraction},
+                 "validation_N": validation.N, "validation_fraction": fraction,
+                 "validation_source": result.validation_source},
         "validation_vaf": result.selected.vaf.tolist(),
     })
     return result
@@ -211,14 +170,16 @@ def _all_lists(result: IdentificationResult) -> list[PathStep]:
 
 
 def _finish(result: IdentificationResult, model_path: Path, report_dir: Path | None, all_lists: bool,
-            data_file: Path | None = None) -> None:
+            noted: RunWarnings, data_files: tuple[Path, ...] = ()) -> None:
     click.echo(result.summary())
+    result.model.info["warnings"] = list(noted.messages)
     model_path.parent.mkdir(parents=True, exist_ok=True)
     result.model.save(model_path)
     click.echo(f"model written to {model_path}")
     if report_dir is not None:
         tried = _all_lists(result) if all_lists else []
-        report = write_report(result, report_dir, tried, data_file=data_file)
+        report = write_report(result, report_dir, tried, data_file=data_files[0] if len(data_files) == 1 else None,
+                              warnings=noted.messages)
         click.echo(f"report written to {report}")
 
 
@@ -228,23 +189,45 @@ def cli() -> None:
     """Identify multivariable linear models from measured data with MOLI-ZOFT."""
 
 
+_FORCE = click.option("--force", is_flag=True, help="Overwrite files already there (a model, a report, a figure).")
+
+
+def _outputs(model_path: Path | None, report_dir: Path | None, folder: Path, force: bool,
+             read: list[Path]) -> tuple[Path, Path | None]:
+    """The model file and report folder of a run, refused before any work if they exist.
+
+    Without --out, both go into the run's own folder; with --out, a report only where
+    --report says.
+    """
+    if model_path is None:
+        model_path, report_dir = folder / "model.json", report_dir or folder / "report"
+    check_output_file(model_path, "--out", read)
+    if report_dir is not None:
+        check_output_folder(report_dir, "--report", (REPORT_FILE,), read)
+    refuse_overwrite([model_path] + ([report_dir / REPORT_FILE] if report_dir is not None else []), force)
+    return model_path, report_dir
+
+
 @cli.command()
 @click.option("--out", "out_dir", default="moli-demo", show_default=True, type=click.Path(path_type=Path),
               help="Folder for report.html, the figures and model.json.")
 @click.option("--nmax", default=DEMO_NMAX, show_default=True, help="Largest order on the greedy path.")
 @click.option("--all-lists", is_flag=True, help="Also fit every list of each order (slower).")
-def demo(out_dir: Path, nmax: int, all_lists: bool) -> None:
+@_FORCE
+def demo(out_dir: Path, nmax: int, all_lists: bool, force: bool) -> None:
     """Identify the built-in simulated 3x3 plant and write a report."""
-    check_output_folder(out_dir, "--out", ("model.json", *REPORT_FILES))
+    check_output_folder(out_dir, "--out", ("model.json", REPORT_FILE))
+    refuse_overwrite([out_dir / "model.json", out_dir / REPORT_FILE], force)
     data = example_data()
     click.echo(f"built-in example plant: {data}")
-    result = _identify(data, 0.5, IdentifyOptions(nmax=nmax))
+    noted = RunWarnings()
+    result = _identify(data, 0.5, IdentifyOptions(nmax=nmax), noted)
     result.model.info["data"]["source"] = "moli.example_data()"
-    _finish(result, out_dir / "model.json", out_dir, all_lists)
+    _finish(result, out_dir / "model.json", out_dir, all_lists, noted)
 
 
 @cli.command()
-@click.argument("data_file", metavar="DATA", required=False, type=click.Path(path_type=Path))
+@click.argument("data_files", metavar="DATA...", nargs=-1, type=click.Path(path_type=Path))
 @click.option("--inputs", help="Comma-separated input column names, e.g. u1,u2.")
 @click.option("--outputs", help="Comma-separated output column names, e.g. y1,y2.")
 @click.option("--daisy", metavar="NAME", help="Use a DaISy benchmark set instead of DATA.")
@@ -270,71 +253,85 @@ def demo(out_dir: Path, nmax: int, all_lists: bool) -> None:
 @click.option("--outliers", type=click.Choice(["warn", "remove"]), default="warn", show_default=True,
               help="Samples far from their neighbours (docs/data.md): warn, or replace them by linear "
                    "interpolation before identifying.")
-@click.option("--out", "model_path", default="model.json", show_default=True,
-              type=click.Path(path_type=Path), help="Model file to write (JSON).")
+@click.option("--out", "model_path", type=click.Path(path_type=Path),
+              help="Model file to write (JSON) [default: model.json in moli-fit-NAME/, beside report/].")
 @click.option("--report", "report_dir", type=click.Path(path_type=Path),
-              help="Folder for report.html and the figures.")
+              help="Folder for report.html and the figures [default: moli-fit-NAME/report/ without --out, "
+                   "else none].")
 @click.option("--all-lists", is_flag=True,
               help=f"Also fit every list of orders with at most {MAX_LISTS_PER_ORDER} lists (report).")
-@_reading_options
-def fit(data_file: Path | None, inputs: str | None, outputs: str | None, daisy: str | None,
+@_FORCE
+@reading_options
+def fit(data_files: tuple[Path, ...], inputs: str | None, outputs: str | None, daisy: str | None,
         data_dir: Path | None, ts: float | None, options_file: Path | None, nmax: int | None,
         order: int | None, fraction: float, seed: int | None, preset: str | None, x0: str | None,
-        outliers: str, model_path: Path, report_dir: Path | None, all_lists: bool, **reading: Any) -> None:
-    """Identify a model from a data file (or a DaISy set).
+        outliers: str, model_path: Path | None, report_dir: Path | None, all_lists: bool, force: bool,
+        **reading: Any) -> None:
+    """Identify a model from a data file, several runs of one plant, or a DaISy set.
 
     DATA is a text table (.csv .tsv .txt), an Excel workbook (.xlsx), Parquet, .npz or
     .mat file (docs/data.md). A table needs a header row with the column names; a
     column named time, t, timestamp, date or datetime gives the sampling period
     (seconds for date-times) unless --ts is given, and must then agree with it.
+    Several DATA files (the same columns) are merged as separate experiments; the
+    validation part is the tail of the last one.
     """
-    if (data_file is None) == (daisy is None):
-        raise DataError("give either a DATA file or --daisy NAME")
-    read = [path for path in (data_file, options_file) if path is not None]
-    check_output_file(model_path, "--out", read)
-    if report_dir is not None:
-        check_output_folder(report_dir, "--report", REPORT_FILES, read)
+    if bool(data_files) == (daisy is not None):
+        raise DataError("give either DATA files or --daisy NAME")
     options = options_from_flags(options_file, preset, nmax=nmax, order=order, seed=seed, x0=x0)
+    stems = [daisy] if daisy is not None else [path.stem for path in data_files]
+    read = [*data_files, *([options_file] if options_file is not None else [])]
+    model_path, report_dir = _outputs(model_path, report_dir, run_folder("fit", stems), force, read)
+    noted = RunWarnings()
     if daisy is not None:
         data = load_daisy(daisy, data_dir)
-        source, data_file = f"DaISy {daisy}", daisy_path(daisy, data_dir)
+        source, data_files = f"DaISy {daisy}", (daisy_path(daisy, data_dir),)
     else:
-        data = _read(data_file, _names(inputs), _names(outputs), ts, reading)
-        source = str(data_file)
-    click.echo(f"{source}: {data}")
+        data = read_records(data_files, names(inputs), names(outputs), ts, reading, noted)
+        source = ", ".join(map(str, data_files))
+    click.echo(f"{source}: {data}" + (f" (the {len(data_files)} files merged)" if len(data_files) > 1 else ""))
     removed = flag_outliers(data).counts if outliers == "remove" else {}
     if removed:
         data = remove_outliers(data)
         click.echo(f"outliers replaced by linear interpolation: {removed}")
-    result = _identify(data, fraction, options)
-    result.model.info["data"].update(source=source, file_sha256=file_sha256(data_file), outliers_removed=removed)
-    _finish(result, model_path, report_dir, all_lists, data_file)
+    result = _identify(data, fraction, options, noted, str(data_files[-1]) if len(data_files) > 1 else None)
+    result.model.info["data"].update(source=source, file_sha256=[file_sha256(f) for f in data_files]
+                                     if len(data_files) > 1 else file_sha256(data_files[0]),
+                                     outliers_removed=removed)
+    _finish(result, model_path, report_dir, all_lists, noted, data_files)
 
 
 @cli.command()
 @click.argument("model_file", metavar="MODEL", type=click.Path(path_type=Path))
-@click.argument("data_file", metavar="DATA", type=click.Path(path_type=Path))
+@click.argument("data_files", metavar="DATA...", nargs=-1, required=True, type=click.Path(path_type=Path))
 @click.option("--inputs", help="Input columns [default: the model's input names].")
 @click.option("--outputs", help="Output columns [default: the model's output names].")
 @click.option("--x0", type=click.Choice(X0_CHOICES), default="zero", show_default=True,
               help="Simulate from the zero state or from a least-squares initial state.")
-@click.option("--plot", type=click.Path(path_type=Path), default="validation.png", show_default=True,
-              help="Where to write the measured-against-simulated figure.")
-@_reading_options
-def validate(model_file: Path, data_file: Path, inputs: str | None, outputs: str | None,
-             x0: str, plot: Path, **reading: Any) -> None:
+@click.option("--out", "out_dir", type=click.Path(path_type=Path),
+              help="Folder for validation.png [default: moli-validate-NAME/].")
+@click.option("--plot", type=click.Path(path_type=Path),
+              help="Where to write the measured-against-simulated figure [default: OUT/validation.png].")
+@_FORCE
+@reading_options
+def validate(model_file: Path, data_files: tuple[Path, ...], inputs: str | None, outputs: str | None,
+             x0: str, out_dir: Path | None, plot: Path | None, force: bool, **reading: Any) -> None:
     """Score MODEL on DATA: VAF and fit per output, and a figure.
 
     DATA is read with the model's channel names unless --inputs/--outputs name other
     columns, and with the model's sampling period: time stamps or a period stored in
-    DATA must agree with it.
+    DATA must agree with it. Several DATA files are scored together, each simulated
+    from its own start.
     """
-    check_output_file(plot, "--plot", [model_file, data_file])
+    plot = plot or (out_dir or run_folder("validate", [path.stem for path in data_files])) / "validation.png"
+    check_output_file(plot, "--plot", [model_file, *data_files])
+    refuse_overwrite([plot], force)
     model = load_model(model_file)
-    data = _read(data_file, _names(inputs) or list(model.input_names),
-                 _names(outputs) or list(model.output_names), model.Ts, reading)
+    data = read_records(data_files, names(inputs) or list(model.input_names),
+                        names(outputs) or list(model.output_names), model.Ts, reading, RunWarnings())
     comparison = compare(model, data, x0)
-    click.echo(f"{data_file}: {data.N} samples; simulation from {x0} initial state")
+    records = f"{len(data_files)} records, " if len(data_files) > 1 else ""
+    click.echo(f"{', '.join(map(str, data_files))}: {records}{data.N} samples; simulation from {x0} initial state")
     click.echo(f"{'output':<16}{'VAF %':>9}{'fit %':>9}")
     for name, v, f in zip(data.output_names, comparison.vaf, comparison.fit):
         click.echo(f"{console_text(name):<16}{v:>9.2f}{f:>9.2f}")

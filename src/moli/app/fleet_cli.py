@@ -26,6 +26,8 @@ from ..method.options import PRESETS, IdentifyOptions
 from ..models.storage import load_model
 from ..validation.comparison import X0_CHOICES, compare
 from .fleet_report import SCORES, write_summary
+from .outputs import refuse_overwrite
+from .reading import names
 
 __all__ = ["fleet_commands", "match_files"]
 
@@ -36,7 +38,7 @@ VALIDATION_FILES = ("validation.csv", "validation.html")
 NAME_WIDTH = 24
 # validate-many flags a loop whose mean fit fell by more than this many points.
 DEFAULT_MAX_DROP = 5.0
-FIT_COLUMNS = ("name", "order", "fit", "vaf", "seconds", "error", "source")
+FIT_COLUMNS = ("name", "order", "fit", "vaf", "validation_N", "seconds", "warnings", "error", "source")
 CHECK_COLUMNS = ("name", "fit_before", "fit_now", "drop", "vaf_now", "status", "error", "source")
 # validate-many statuses that flag a loop (a model without a new record is only listed)
 FLAGGED = ("dropped", "failed", "no model")
@@ -65,10 +67,6 @@ def _by_stem(files: list[Path]) -> dict[str, Path]:
                             "known by its file's stem; rename one or run them apart")
         named[path.stem] = path
     return named
-
-
-def _names(text: str | None) -> list[str] | None:
-    return None if text is None else [name.strip() for name in text.split(",") if name.strip()]
 
 
 def _client(address: str) -> Any:
@@ -130,14 +128,15 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
                   help="Run on this Dask scheduler (e.g. tcp://10.0.0.5:8786) instead of local processes.")
     @click.option("--options", "options_file", type=click.Path(path_type=Path),
                   help="JSON file of identification options, or a saved model whose options are reused.")
-    @click.option("--preset", type=click.Choice(PRESETS), help="Search options [default: improved].")
+    @click.option("--preset", type=click.Choice(PRESETS), help="Search options, as for moli fit [default: default].")
     @click.option("--nmax", type=int, help="Largest order on the greedy path [default: max(10, p + 4)].")
     @click.option("--seed", type=int, help="Seed of the randomized filter search [default: 0].")
     @click.option("--out", "out_dir", default="models", show_default=True, type=click.Path(path_type=Path),
                   help="Folder for NAME.json per record and summary.csv / summary.html.")
+    @click.option("--force", is_flag=True, help="Overwrite model files and a summary already in --out.")
     def fit_many(patterns: tuple[str, ...], inputs: str, outputs: str, ts: float | None,
                  workers: int | None, scheduler: str | None, options_file: Path | None,
-                 preset: str | None, nmax: int | None, seed: int | None, out_dir: Path) -> None:
+                 preset: str | None, nmax: int | None, seed: int | None, out_dir: Path, force: bool) -> None:
         """Identify every record matched by PATTERN (quote it: 'plant/*.csv').
 
         Each record is named by its file's stem and identified on its own, its last
@@ -149,9 +148,10 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
         options = options_from_flags(options_file, preset, nmax=nmax, seed=seed)
         files = match_files(patterns)
         sources = _by_stem(files)
-        check_output_folder(out_dir, "--out", [*SUMMARY_FILES, *(f"{name}.json" for name in sources)],
-                            [*files, *([options_file] if options_file else [])])
-        read = {"inputs": _names(inputs), "outputs": _names(outputs), "Ts": ts}
+        written = [*SUMMARY_FILES, *(f"{name}.json" for name in sources)]
+        check_output_folder(out_dir, "--out", written, [*files, *([options_file] if options_file else [])])
+        refuse_overwrite([out_dir / name for name in written], force)
+        read = {"inputs": names(inputs), "outputs": names(outputs), "Ts": ts}
         executor = None if scheduler is None else _client(scheduler)
         try:
             fleet = identify_many(files, options, executor=executor, n_jobs=workers, read_options=read)
@@ -159,19 +159,26 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
             if executor is not None:
                 executor.close()
         out_dir.mkdir(parents=True, exist_ok=True)
-        rows = [{**_saved(entry, sources[entry.name], out_dir), "source": str(sources[entry.name])}
+        rows = [{**_saved(entry, sources[entry.name], out_dir), "source": str(sources[entry.name]),
+                 "warnings": "; ".join(entry.warnings) or None,
+                 "validation_N": None if entry.result is None else entry.result.validation.N}
                 for entry in fleet]
         failed = [row for row in rows if row["error"]]
         csv_path, html_path = write_summary(
             rows, FIT_COLUMNS, out_dir, "summary", "moli fit-many", "fit",
             notes=[f"fit and vaf: mean over the outputs of the selected model's NRMSE fit and VAF "
-                   f"on the held-out tail, percent; run on {fleet.backend} in {fleet.seconds:.1f} s",
+                   f"on the held-out tail, percent; validation_N: the samples of that tail, which chose "
+                   f"the order; warnings: every warning the record raised; run on {fleet.backend} in "
+                   f"{fleet.seconds:.1f} s",
                    SCORES],
         )
         click.echo(f"{len(fleet)} records on {fleet.backend} in {fleet.seconds:.1f} s: "
                    f"{len(fleet) - len(failed)} models in {out_dir}, {len(failed)} failed")
         for row in failed:
             click.echo(f"  failed: {console_text(row['name'])}: {console_text(row['error'])}", err=True)
+        for entry in fleet:
+            for message in entry.warnings:
+                click.echo(f"  warning: {console_text(entry.name)}: {console_text(message)}", err=True)
         click.echo(f"summary written to {csv_path} and {html_path}")
         if failed:
             raise click.exceptions.Exit(FAILED)

@@ -25,7 +25,7 @@ from ..method.search import PathStep
 from ..validation.comparison import compare
 from ..validation.residuals import SAMPLES_PER_LAG, ResidualAnalysis, residual_analysis
 
-__all__ = ["path_table", "validation_caption", "write_report"]
+__all__ = ["path_table", "validation_caption", "warnings_section", "write_report"]
 
 STYLE = """
 body { font-family: sans-serif; max-width: 60em; margin: 2em auto; color: #222; }
@@ -94,7 +94,8 @@ def _model_facts(result: IdentificationResult) -> str:
         "filter (wc, zeta)": f"{model.info.get('wc', float('nan')):.4g}, "
                              f"{model.info.get('zeta', float('nan')):.3f}",
         "largest pole modulus": f"{radius:.4f} ({'stable' if model.is_stable() else 'UNSTABLE'})",
-        "selected by": result.selection,
+        "selected by": f"{result.selection}, on {result.validation.N} validation samples "
+                       f"({result.validation_source})",
     }
     return _facts(facts)
 
@@ -110,6 +111,23 @@ def _provenance(result: IdentificationResult, data_file: str | Path | None) -> s
     rows["moli version"] = __version__
     rows["written (UTC)"] = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M:%S")
     return _facts(rows)
+
+
+def warnings_section(messages: Sequence[str]) -> str:
+    """The warnings of the run, as the console printed them; says so when there were none.
+
+    Parameters
+    ----------
+    messages : sequence of str
+
+    Returns
+    -------
+    str
+    """
+    if not messages:
+        return "<h2>Warnings</h2><p class='note'>The run raised no warning.</p>"
+    items = "".join(f"<li>{html.escape(message)}</li>" for message in messages)
+    return f"<h2>Warnings</h2><p class='note'>Every warning the run raised:</p><ul>{items}</ul>"
 
 
 def _scores_note(result: IdentificationResult) -> str:
@@ -180,6 +198,7 @@ def write_report(
     title: str = "moli identification report",
     *,
     data_file: str | Path | None = None,
+    warnings: Sequence[str] | None = None,
 ) -> Path:
     """Write ``report.html`` and its figures (PNG) into ``directory``.
 
@@ -199,6 +218,9 @@ def write_report(
     data_file : str or Path, optional
         The file the record was read from: the report gives its name and SHA-256.
         Default: the source recorded in ``result.model.info["data"]``, if any.
+    warnings : sequence of str, optional
+        Every warning the run raised (reading, screening, the search, the order rule):
+        the report lists them under the model. Default: no warnings section.
 
     Returns
     -------
@@ -250,7 +272,9 @@ def write_report(
         figures_html[name] = (f"<figure>{_image(png, name)}<figcaption class='note'>{caption}"
                               "</figcaption></figure>")
     residuals = "" if analysis is None else residual_section(analysis, figures_html.pop("residuals"))
-    interrupted = ("<p><b>The search was interrupted; the path below is partial.</b></p>"
+    interrupted = (f"<p><b>Interrupted after the path: skipped {html.escape(', '.join(result.skipped))}; "
+                   "the model is the best complete one before them.</b></p>" if result.skipped else
+                   "<p><b>The search was interrupted; the path below is partial.</b></p>"
                    if result.interrupted else "")
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>
@@ -262,6 +286,7 @@ def write_report(
 {_provenance(result, data_file)}
 {interrupted}
 <h2>Selected model</h2>{_model_facts(result)}
+{'' if warnings is None else warnings_section(warnings)}
 <h2>How to read the scores</h2>
 {_scores_note(result)}
 <h2>Greedy structure path</h2>

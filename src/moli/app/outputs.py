@@ -1,0 +1,60 @@
+"""Where the commands write, and the rule that they never overwrite without ``--force``.
+
+Each run writes into one folder of its own, named after what it read
+(``moli-fit-plant/`` for ``plant.csv``), unless the user points elsewhere. A file
+that is already there (a model, a report, a figure, a summary) is left alone: the
+command stops before any work with one line naming it and the flag that allows it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Iterable, Sequence
+
+from ..errors import OptionError
+
+__all__ = ["REPORT_FILE", "run_folder", "refuse_overwrite"]
+
+REPORT_FILE = "report.html"
+# a folder name joins at most this many record names, then counts the rest
+NAMES_IN_FOLDER = 3
+
+
+def run_folder(command: str, names: Sequence[str]) -> Path:
+    """The default output folder of one run: ``moli-<command>-<names>``.
+
+    Parameters
+    ----------
+    command : str
+        The command, e.g. ``"fit"``.
+    names : sequence of str
+        What the run read: file stems or a DaISy name.
+
+    Returns
+    -------
+    Path
+        Relative to the current folder.
+
+    Examples
+    --------
+    >>> run_folder("fit", ["run1", "run2"]).as_posix()
+    'moli-fit-run1+run2'
+    >>> run_folder("fit", ["a", "b", "c", "d", "e"]).as_posix()
+    'moli-fit-a+b+c+2-more'
+    """
+    shown = list(names[:NAMES_IN_FOLDER])
+    if len(names) > NAMES_IN_FOLDER:
+        shown.append(f"{len(names) - NAMES_IN_FOLDER}-more")
+    return Path(f"moli-{command}-{'+'.join(shown)}")
+
+
+def refuse_overwrite(paths: Iterable[Path], force: bool) -> None:
+    """Raise :class:`OptionError` naming the first of ``paths`` that exists, unless ``force``.
+
+    Called before any work, so that a long identification never ends in a refusal.
+    """
+    if force:
+        return
+    for path in paths:
+        if path.exists():
+            raise OptionError(f"{path} exists: give --force to overwrite it, or --out to write elsewhere")
