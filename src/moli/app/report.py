@@ -19,10 +19,12 @@ from . import figures
 from .._version import __version__
 from ..data.atomic_files import write_atomic
 from ..data.files import file_sha256
-from ..data.iodata import longest_segment
+from ..data.iodata import IOData, longest_segment
+from ..errors import DataError
 from ..method.identification import IdentificationResult
 from ..method.search import PathStep
 from ..validation.comparison import compare
+from ..validation.frequency import empirical_frequency_response
 from ..validation.residuals import SAMPLES_PER_LAG, ResidualAnalysis, residual_analysis
 
 __all__ = ["path_table", "validation_caption", "warnings_section", "write_report"]
@@ -191,6 +193,15 @@ input at lags 0-{analysis.lags}. A test fails below p = {1 - analysis.confidence
 """
 
 
+def _spectrum_record(record: IOData) -> IOData | None:
+    """``record`` when it is long enough for the figures' spectral estimate, else None."""
+    try:
+        empirical_frequency_response(record)
+    except DataError:
+        return None
+    return record
+
+
 def write_report(
     result: IdentificationResult,
     directory: str | Path,
@@ -240,6 +251,9 @@ def write_report(
     comparison = compare(model, validation, result.options.x0)
     # spectra and residual correlations run through time: on the longest stretch without a gap
     continuous = longest_segment(validation)
+    spectrum = _spectrum_record(continuous)
+    no_spectrum = "" if spectrum is not None else (f" (no spectral estimate: the longest validation stretch, "
+                                                   f"{continuous.N} samples, is too short for one)")
     bands = (f", shaded: pointwise {figures.BAND_CONFIDENCE:.0%} confidence band of the estimate "
              "(docs/uncertainty.md)." if model.cov_factor is not None else ".")
     drawn = {
@@ -251,13 +265,14 @@ def write_report(
         "poles": (figures.poles(model), "Poles of the selected model and the unit circle."),
         "step_responses": (figures.step_responses(model, figures.settling_samples(model)),
                            "Unit-step responses from each input to each output (deviations)" + bands),
-        "magnitude": (figures.bode_magnitude(model, continuous),
-                      "Gain of each channel against frequency, up to the Nyquist frequency" + bands),
-        "singular_values": (figures.singular_values(model, continuous),
+        "magnitude": (figures.bode_magnitude(model, spectrum),
+                      "Gain of each channel against frequency, up to the Nyquist frequency" + no_spectrum
+                      + bands),
+        "singular_values": (figures.singular_values(model, spectrum),
                             "Singular values of the frequency response (largest and smallest gain "
                             "over input directions) beside those of the spectral estimate"
                             + (f" (from the longest validation segment, {continuous.N} samples)."
-                               if validation.n_segments > 1 else ".")),
+                               if validation.n_segments > 1 else ".") + no_spectrum),
     }
     # at most the default 25 lags, fewer on a short validation record
     lags = min(25, continuous.N // SAMPLES_PER_LAG - 1)
