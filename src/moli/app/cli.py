@@ -332,10 +332,7 @@ def validate(model_file: Path, data_files: tuple[Path, ...], inputs: str | None,
     comparison = compare(model, data, x0)
     records = f"{len(data_files)} records, " if len(data_files) > 1 else ""
     click.echo(f"{', '.join(map(str, data_files))}: {records}{data.N} samples; simulation from {x0} initial state")
-    click.echo(f"{'output':<16}{'VAF %':>9}{'fit %':>9}")
-    for name, v, f in zip(data.output_names, comparison.vaf, comparison.fit):
-        click.echo(f"{console_text(name):<16}{v:>9.2f}{f:>9.2f}")
-    click.echo(f"{'mean':<16}{comparison.mean_vaf:>9.2f}{np.mean(comparison.fit):>9.2f}")
+    click.echo(repr(comparison))
     click.echo(SCORES)
     plot.parent.mkdir(parents=True, exist_ok=True)
     save_figure(measured_vs_simulated(data, comparison), plot)

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..data.display import console_text
 from ..data.iodata import IOData
 from ..errors import DataError, OptionError
 from .metrics import nrmse_fit, vaf
@@ -20,7 +21,7 @@ __all__ = ["Comparison", "estimate_initial_state", "compare", "same_period"]
 TS_TOLERANCE = 1e-6
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class Comparison:
     """Measured against simulated outputs of one model on one record.
 
@@ -36,6 +37,20 @@ class Comparison:
         Initial state used; one row per segment when the record has several.
     horizon : int or None
         Prediction horizon ``k``; None for the simulation.
+    output_names : tuple of str
+        The record's output names, for the printed table.
+
+    Its ``repr`` (what ``print`` and the interpreter show) is the table of scores per
+    output, not the arrays.
+
+    Examples
+    --------
+    >>> import moli
+    >>> print(moli.Comparison(np.zeros((2, 1)), np.array([91.5]), np.array([70.25]), np.zeros(1)))
+    simulation on 2 samples: VAF and NRMSE fit, percent
+    output              VAF %    fit %
+    y1                  91.50    70.25
+    mean                91.50    70.25
     """
 
     yhat: np.ndarray
@@ -43,11 +58,23 @@ class Comparison:
     fit: np.ndarray
     x0: np.ndarray
     horizon: int | None = None
+    output_names: tuple[str, ...] = ()
 
     @property
     def mean_vaf(self) -> float:
         """Average VAF over the outputs, percent."""
         return float(np.mean(self.vaf))
+
+    def __repr__(self) -> str:
+        kind = "simulation" if self.horizon is None else f"{self.horizon}-step prediction"
+        # names as a console shows them: a control character in a name cannot break a line
+        names = tuple(map(console_text, self.output_names)) or tuple(f"y{i + 1}" for i in range(len(self.vaf)))
+        width = max(16, *(len(name) + 2 for name in names))
+        lines = [f"{kind} on {len(self.yhat)} samples: VAF and NRMSE fit, percent",
+                 f"{'output':<{width}}{'VAF %':>9}{'fit %':>9}"]
+        lines += [f"{name:<{width}}{v:>9.2f}{f:>9.2f}" for name, v, f in zip(names, self.vaf, self.fit)]
+        lines.append(f"{'mean':<{width}}{self.mean_vaf:>9.2f}{float(np.mean(self.fit)):>9.2f}")
+        return "\n".join(lines)
 
 
 def estimate_initial_state(model: StateSpaceModel, u: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -122,5 +149,5 @@ def compare(model: StateSpaceModel, data: IOData, x0: str = "zero", horizon: int
     start = runs[0][1] if len(runs) == 1 else np.stack([run[1] for run in runs])
     return Comparison(
         yhat=ydev + model.y_offset - data.y_offset, vaf=vaf(y, ydev), fit=nrmse_fit(y, ydev), x0=start,
-        horizon=k,
+        horizon=k, output_names=tuple(data.output_names),
     )
