@@ -9,7 +9,7 @@ import moli
 
 def test_printed_comparison_is_a_table_of_scores_per_output():
     data = moli.example_data(N=300, seed=1)
-    model = moli.identify(data, nmax=4, refine="none", noise_model=False).model
+    model = moli.identify(data, nmax=4, refine="none").model
     scores = moli.compare(model, data)
     shown = str(scores)
     assert shown == repr(scores)
