@@ -12,7 +12,7 @@ blocks of ``docs/twin_rotor.md`` that lie between ``<!-- generated: NAME -->`` a
 ``<!-- end generated: NAME -->`` from those numbers, leaving the prose around
 them alone.
 
-``tests/test_twin_rotor_docs.py`` checks that each block is exactly what
+``tests/control/test_twin_rotor_docs.py`` checks that each block is exactly what
 :func:`render` makes of the JSON file, and that the JSON file holds what the code
 computes now (in full for the rig, the control design and both experiments; for
 the seed study, seed 0 of the rig without Coulomb friction).

@@ -4,7 +4,8 @@ Usage::
 
     python examples/twin_rotor.py [OUTDIR] [--seed SEED]
 
-Writes to OUTDIR (default ``docs/figures``):
+Writes to OUTDIR (default ``twin_rotor_figures/`` beside this script, wherever it is run
+from):
 
 - ``twin_rotor_identification.png``: measured vs simulated outputs over the 60 s
   record, like the paper's Fig. 7;
@@ -241,7 +242,8 @@ def print_steps(runs: dict[str, mc.ClosedLoopRun], windows: list[tuple[int, int,
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("outdir", nargs="?", default="docs/figures", help="directory for the PNG files")
+    parser.add_argument("outdir", nargs="?", type=Path, default=Path(__file__).resolve().parent / "twin_rotor_figures",
+                        help="directory for the PNG files [default: %(default)s]")
     parser.add_argument("--seed", type=int, default=0, help="seed of excitation, noise and filter search")
     args = parser.parse_args()
     study = run_study(args.seed)
@@ -260,7 +262,7 @@ def main() -> None:
     print_steps(study.saturation, SATURATION_WINDOWS, names)
     for name, left in study.left_envelope.items():
         print(f"{name} left the rig's angle envelope: {'yes' if left else 'no'}")
-    write_figures(study, Path(args.outdir))
+    write_figures(study, args.outdir)
     print(f"figures written to {args.outdir}/")
 
 

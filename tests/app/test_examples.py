@@ -26,3 +26,12 @@ def test_example_runs(script, tmp_path):
     written = [p for p in out.rglob("*") if p.is_file()]
     assert written and all(p.stat().st_size > 0 for p in written)
     assert list(tmp_path.iterdir()) == [out], "scripts must write only into the folder given"
+
+
+def test_twin_rotor_writes_beside_itself_by_default(tmp_path):
+    """Run from any folder without OUTDIR, it never writes over the repository's docs/figures."""
+    script = next(p for p in EXAMPLES if p.name == "twin_rotor.py")
+    shown = subprocess.run([sys.executable, str(script), "--help"], cwd=tmp_path, capture_output=True,
+                           text=True, timeout=TIME_LIMIT).stdout
+    # argparse wraps the help: compare without white space
+    assert str(script.parent / "twin_rotor_figures") in "".join(shown.split())

@@ -47,7 +47,7 @@ class TwinRotor:
     ``u_k``. Between samples the ODE is integrated by classical Runge-Kutta with a
     fixed step ``Ts / substeps`` (5 ms by default: the fastest linearised pole is
     -1 rad/s and the pitch mode 2.15 rad/s, so the local error is far below the
-    encoder's resolution; ``tests/test_twin_rotor.py`` checks it against an
+    encoder's resolution; ``tests/control/test_twin_rotor.py`` checks it against an
     adaptive solver). The discontinuous ``sign(v)`` of Coulomb friction is
     smoothed to ``tanh(v / eps)``.
 
