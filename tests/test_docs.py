@@ -81,3 +81,10 @@ def test_docs_have_python_blocks_and_few_are_skipped():
 def test_every_test_file_the_docs_name_exists():
     named = {m for path in DOCS for m in re.findall(r"tests/[\w/]+\.py", path.read_text(encoding="utf-8"))}
     assert named and sorted(name for name in named if not (REPO / name).is_file()) == []
+
+
+def test_readme_says_how_to_give_the_tests_the_daisy_records_right_after_its_commands():
+    text = (REPO / "README.md").read_text(encoding="utf-8")
+    after_commands = text.split("```", 2)[2].split("\n\n", 2)[1]    # the paragraph after the first block
+    assert "MOLI_DATA_DIR" in after_commands and "../shared/data/daisy" in after_commands
+    assert "skipped" in after_commands
