@@ -88,3 +88,14 @@ def test_readme_says_how_to_give_the_tests_the_daisy_records_right_after_its_com
     after_commands = text.split("```", 2)[2].split("\n\n", 2)[1]    # the paragraph after the first block
     assert "MOLI_DATA_DIR" in after_commands and "../shared/data/daisy" in after_commands
     assert "skipped" in after_commands
+
+
+def test_cli_md_shows_every_command_of_the_first_session():
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("first_hour", REPO / "benchmarks" / "first_hour.py")
+    first_hour = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(first_hour)
+    page = (REPO / "docs" / "cli.md").read_text(encoding="utf-8")
+    shown = page.split(first_hour.START)[1].split(first_hour.END)[0]
+    commands = [line[2:] for line in shown.splitlines() if line.startswith("$ moli ")]
+    assert commands == first_hour.SESSION

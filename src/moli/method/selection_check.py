@@ -71,7 +71,7 @@ def warn_if_short_selection(path: Sequence[PathStep], validation_samples: int, m
         warnings.warn(
             f"the order was chosen on {validation_samples} validation samples, fewer than the "
             f"{need} that tell the path's orders apart ({SAMPLES_PER_PARAMETER} per parameter of "
-            f"its largest model, {need // SAMPLES_PER_PARAMETER} per output): treat the order as "
-            "a guess; give a longer record or more validation data, or fix the order (--order)",
+            f"its largest model, {need // SAMPLES_PER_PARAMETER} per output), so the choice of order "
+            "is uncertain; give a longer record or more validation data, or fix the order (order=..., moli fit --order)",
             ShortValidationWarning, stacklevel=stacklevel + 1,
         )
