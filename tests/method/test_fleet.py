@@ -185,3 +185,18 @@ def test_ray_through_joblib_gives_the_serial_results(serial):
         ray.shutdown()
     assert other.backend == "joblib ray, 2 workers"
     assert_same_entries(serial, other)
+
+
+def test_relative_paths_are_read_from_the_callers_folder_by_reused_workers(tmp_path, monkeypatch):
+    """Local workers outlive one call and keep the folder they started in."""
+    counts = {"a": 300, "b": 360}
+    for folder, N in counts.items():
+        (tmp_path / folder).mkdir()
+        for name in ("one", "two"):
+            moli.to_dataframe(moli.example_data(N=N, seed=1)).to_csv(tmp_path / folder / f"{name}.csv")
+    for folder, N in counts.items():
+        monkeypatch.chdir(tmp_path / folder)
+        fleet = identify_many(["one.csv", "two.csv"], OPTIONS, n_jobs=2, read_options=READ, progress=False)
+        for entry in fleet:
+            assert entry.result is not None, entry.error
+            assert entry.result.estimation.N + entry.result.validation.N == N, entry.name

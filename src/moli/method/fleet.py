@@ -234,6 +234,9 @@ def identify_many(
     reading = _read_options(read_options)
     if not (isinstance(progress, bool) or callable(progress)):
         raise OptionError(f"progress must be True, False or a callable, got {progress!r}")
+    if executor is None or isinstance(executor, str):
+        # local workers are reused from call to call with the folder they started in
+        items = [(name, _from_here(item)) for name, item in items]
     calls = [(name, item, options or IdentifyOptions(), reading) for name, item in items]
     entries: dict[int, FleetEntry] = {}
     start = time.perf_counter()
@@ -248,6 +251,13 @@ def identify_many(
             entries[index] = entry
             tell(entry)
     return FleetResult([entries[i] for i in range(len(calls))], backend, time.perf_counter() - start)
+
+
+def _from_here(item: Item) -> Item:
+    """``item`` with each file path made absolute against this process's current folder."""
+    if isinstance(item, tuple):
+        return tuple(_from_here(part) for part in item)      # type: ignore[return-value]
+    return item if isinstance(item, IOData) else os.path.abspath(item)
 
 
 def _name_of(item: Item, position: int) -> str:
