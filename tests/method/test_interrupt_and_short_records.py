@@ -73,3 +73,12 @@ def test_samples_needed_is_ten_per_parameter_of_the_largest_model():
     from types import SimpleNamespace
     path = [SimpleNamespace(indices=(1, 1, 1)), SimpleNamespace(indices=(2, 1, 1))]
     assert selection_samples_needed(path, 3) == SAMPLES_PER_PARAMETER * 12
+
+
+def test_ctrl_c_in_the_refined_order_rule_falls_back_to_the_paired_rule(halves, monkeypatch):
+    paired = moli.identify(*halves, nmax=NMAX, order_rule="paired", refine="none")
+    monkeypatch.setattr(identification, "select_order_refined", interrupt)
+    cut = moli.identify(*halves, nmax=NMAX, order_rule="refined")
+    assert cut.skipped == ("order rule's refinements", "refinement", "covariance", "noise model")
+    assert cut.selected.indices == paired.selected.indices
+    assert cut.selection.startswith("lowest order within one paired standard error")
