@@ -52,9 +52,8 @@ PROGRESS = re.compile(r"^(structure search|fleet):.*$")
 
 
 def make_files(folder: Path) -> None:
-    """plant.csv with a ``Time [s]`` column (Ts = 0.5 s), tiny.csv of 49 rows, two runs."""
+    """plant.csv with a ``Time [s]`` column (Ts = 1 s), tiny.csv of 49 rows, two runs."""
     plant = moli.to_dataframe(moli.example_data(N=1000, seed=1))
-    plant.index = plant.index * 0.5
     plant.index.name = "Time [s]"
     plant.to_csv(folder / "plant.csv")
     moli.to_dataframe(moli.example_data(N=49, seed=2)).to_csv(folder / "tiny.csv")
