@@ -141,7 +141,9 @@ def test_a_symbolic_link_at_out_is_replaced_not_followed(tmp_path):
     victim = tmp_path / "victim.txt"
     victim.write_text("precious")
     (tmp_path / "model.json").symlink_to(victim)
-    done = run("fit", str(data), *CHANNELS, "--nmax", "2", "--out", str(tmp_path / "model.json"))
+    args = ("fit", str(data), *CHANNELS, "--nmax", "2", "--out", str(tmp_path / "model.json"))
+    assert_clean_error(run(*args), "exists: give --force")     # an existing file is kept...
+    done = run(*args, "--force")                                # ...and --force replaces the link
     assert done.exit_code == 0, done.output + done.stderr
     assert victim.read_text() == "precious"
     assert not (tmp_path / "model.json").is_symlink() and moli.load_model(tmp_path / "model.json").n >= 1
