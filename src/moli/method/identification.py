@@ -24,7 +24,7 @@ from .options import IdentifyOptions
 from .refinement import MAX_RADIUS
 from .refinement import refine_each
 from .result import IdentificationResult
-from .order_rules import select_order, select_order_paired, select_order_refined, siblings
+from .order_rules import clearly_better, select_order, select_order_paired, select_order_refined, siblings
 from .search import PathStep, StructureSearch, greedy_path
 from .selection_check import warn_if_short_selection
 from .tuning import default_omega
@@ -221,15 +221,16 @@ def identify(
                 path[selected] = refined(path[selected])[0]
             elif opts.refine == "guarded":
                 stage = "refinement"
-                # each ridge from the unrefined model, and the free refinement of each other list
-                # the greedy step compared at this order (docs/method.md §12): the best on validation stays
-                candidates = refined(path[selected], ridges)
-                if not interrupted:
-                    for sibling in siblings(search, path, selected):
-                        candidates += refined(sibling, ridges[:1])
-                for candidate in candidates:
+                # each ridge from the unrefined model: the best on validation stays; then the free
+                # refinement of each other list the greedy step compared at this order, where it
+                # is better by more than a paired standard error (docs/method.md §12)
+                for candidate in refined(path[selected], ridges):
                     if candidate.mean_vaf > path[selected].mean_vaf:
                         path[selected] = candidate
+                for sibling in [] if interrupted else siblings(search, path, selected):
+                    for candidate in refined(sibling, ridges[:1]):
+                        if clearly_better(candidate, path[selected], scored, opts.x0):
+                            path[selected] = candidate
             # covariance (of the problem that gave the model: a refined one's on the search window, the
             # least squares' on the whole record) and noise model (search window) of the delay-free
             # model, on the shifted record

@@ -19,7 +19,7 @@ from ..validation.comparison import compare
 from .search import PathStep, StructureSearch
 from .structure import raised
 
-__all__ = ["select_order", "select_order_paired", "select_order_refined", "siblings"]
+__all__ = ["select_order", "select_order_paired", "select_order_refined", "siblings", "clearly_better"]
 
 # Batches of the paired order rule: enough for a standard error, each long enough
 # (tens of samples on short records) to hold the errors' serial correlation.
@@ -162,6 +162,21 @@ def siblings(search: StructureSearch, path: list[PathStep], selected: int) -> li
     chosen = path[selected].indices
     lists = [c for c in raised(path[selected - 1].indices) if c != chosen and search.feasible(c)]
     return search.fit_many(lists)
+
+
+def clearly_better(step: PathStep, than: PathStep, validation: IOData, x0: str = "zero",
+                   z: float = PAIRED_Z) -> bool:
+    """Whether ``step`` beats ``than`` on validation by more than ``z`` paired standard errors.
+
+    The test of :func:`select_order_paired` the other way round: a candidate that wins by
+    less could win by the validation record's chance alone, and on short records choosing
+    among many such candidates loses on fresh data.
+    """
+    if not step.stable and than.stable:
+        return False
+    worse, spread = _paired_difference(_error_shares(than.model, validation, x0),
+                                       _error_shares(step.model, validation, x0))
+    return bool(np.isfinite(worse) and worse > z * spread)
 
 
 def _error_shares(model: StateSpaceModel, validation: IOData, x0: str = "zero") -> np.ndarray:
