@@ -130,4 +130,10 @@ def test_stability_test_agrees_with_the_roots(moduli, angles):
     # moved by the coefficients' rounding (by about eps**(1/multiplicity)), so the
     # stored polynomial is only judged where the built and the computed radius agree.
     if abs(radius - 1.0) > 1e-9 and (built < 1.0) == (radius < 1.0):
-        assert _schur_stable(coeffs) == (radius < 1.0)
+        # it never certifies an unstable polynomial; a stable one it does not certify is
+        # left to the roots (check_alpha), which happens only near the circle, where the
+        # recursion's round-off grows like 1 / (1 - |k|^2) (roots at 0.99999 seen)
+        certified = _schur_stable(coeffs)
+        assert not (certified and radius >= 1.0)
+        if radius < 1.0 - 1e-3:
+            assert certified
