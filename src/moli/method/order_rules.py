@@ -99,8 +99,9 @@ def select_order_refined(
     lowest, is judged by the best of its lists' least-squares models and their
     refinements (consistent under output noise, docs/method.md §12), and the paired test
     of :func:`select_order_paired` compares it with the best model known, the best
-    least-squares model of the path or its refinement, on the same validation samples. The first order that passes is kept; none
-    passes before the best model's own order, which is then kept.
+    least-squares model of the path or its refinement, on the same validation samples.
+    The first order that passes is kept; if none passes before the best model's own
+    order, that order is kept.
 
     Parameters
     ----------
