@@ -209,3 +209,19 @@ def test_to_control_with_noise_channels():
         plant.to_control(noise=True)
     with pytest.raises(moli.OptionError, match="True or False"):
         model.to_control(noise="yes")
+
+
+def test_a_white_simulation_error_keeps_no_gain():
+    # white output noise on the true model: the innovations are the noise itself (K = 0),
+    # and a gain fitted to it fails the whiteness test on fresh data
+    plant = moli.example_plant()
+    rng = np.random.default_rng(5)
+    u = rng.standard_normal((3000, plant.m))
+    y = plant.simulate(u)
+    y = y + 0.1 * y.std(axis=0) * rng.standard_normal(y.shape)
+    fitted = moli.estimate_noise_model(plant, moli.IOData(y[:1500], u[:1500]))
+    assert fitted.info["noise_model"]["start"] == "white simulation error"
+    np.testing.assert_array_equal(fitted.K, 0.0)
+    verdicts = moli.residual_analysis(fitted, moli.IOData(y[1500:], u[1500:]))
+    # three outputs at 99 % each: all white on this seed, as the noise is
+    assert all("residuals white" in v for v in verdicts.verdicts)

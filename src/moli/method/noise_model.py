@@ -100,6 +100,25 @@ def _log_det_cov(eps: np.ndarray) -> float:
     return value if sign > 0 else -np.inf
 
 
+def _significant(A: np.ndarray, C: np.ndarray, K: np.ndarray, e: np.ndarray) -> bool:
+    """Whether the gain ``K`` explains the simulation error ``e`` better than white noise does.
+
+    The likelihood-ratio test of ``K = 0``: with ``K = 0`` the innovations are the
+    simulation error itself, less the free response of its best initial state (the
+    transient of an unknown start, which a gain would otherwise be fitted to absorb).
+    ``N (log det Σ_0 - log det Σ_K)`` is chi-squared with ``n p`` degrees of freedom
+    when the error is white; a gain that lowers it by less than the 95 % point is noise
+    fitted to noise, and on fresh data it makes the one-step errors coloured.
+    """
+    import scipy.stats
+
+    N, p = e.shape
+    free = free_response(A, C, N).reshape(N * p, -1)
+    white = e - (free @ np.linalg.lstsq(free, e.ravel(), rcond=None)[0]).reshape(N, p)
+    statistic = N * (_log_det_cov(white) - _log_det_cov(_innovations(A, C, K, e)))
+    return bool(statistic > scipy.stats.chi2.ppf(0.95, K.size))
+
+
 def _prediction_error_steps(A: np.ndarray, C: np.ndarray, K: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, int]:
     """Gauss-Newton steps on ``K`` that lower ``log det`` of the innovation covariance.
 
@@ -211,6 +230,8 @@ def estimate_noise_model(model: StateSpaceModel, data: IOData) -> StateSpaceMode
         stable = _stabilizing_gain(model.A, model.C, K, cov)
         K, start = (stable, "spectral factor") if stable is not None else (np.zeros_like(K), "output error")
     K, steps = _prediction_error_steps(model.A, model.C, K, e)
+    if not _significant(model.A, model.C, K, e):
+        K, start = np.zeros_like(K), "white simulation error"
     attached = copy.deepcopy(model)  # keeps every field of the model, whatever it holds
     attached.K = K
     yhat, _ = predicted_deviations(attached, u, y, 1, "estimate")

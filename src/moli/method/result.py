@@ -122,7 +122,10 @@ class IdentificationResult:
         noise = self.model.info.get("noise_model", {})
         if self.model.K is not None:
             std = ", ".join(f"{v:.4g}" for v in np.sqrt(np.diag(self.model.noise_cov)))
-            lines.append(f"noise model: Kalman gain K from the estimation residuals, innovation std {std}")
+            how = ("K = 0: the simulation error is white (likelihood-ratio test)"
+                   if noise.get("start") == "white simulation error"
+                   else "Kalman gain K from the estimation residuals")
+            lines.append(f"noise model: {how}, innovation std {std}")
         elif noise.get("method") == "none":
             lines.append(f"noise model: none ({noise['reason']})")
         return "\n".join(lines)
