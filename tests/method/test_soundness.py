@@ -130,3 +130,15 @@ def test_an_unstable_refined_model_has_no_covariance():
     unstable = model.with_matrices(1.2 * np.eye(4), model.B, model.C, model.D, dict(model.info), model.divisors)
     with pytest.raises(moli.DataError, match="stable"):
         refined_covariance(unstable, data.u, data.y, data.bounds)
+
+
+def test_the_readme_example_and_the_demo_pass_their_own_checks():
+    # the README's example: no order-bound warning, and residuals that pass its whiteness test
+    est, val = moli.example_data(N=1000).split(600)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", moli.OrderBoundWarning)
+        model = moli.identify(est, val, nmax=10).model
+        # moli demo: the whole example record, half held out, the default order bound
+        moli.identify(*moli.example_data().split(0.5))
+    verdicts = moli.residual_analysis(model, val).verdicts
+    assert all("residuals white" in verdict for verdict in verdicts), verdicts

@@ -47,7 +47,6 @@ INTERRUPTED = 130
 # --all-lists fits every list only for orders with at most this many lists: the count
 # C(n-1, p-1) grows fast, and each list costs one filter search.
 MAX_LISTS_PER_ORDER = 30
-DEMO_NMAX = 6
 
 class _Group(click.Group):
     """Turns bad input into one line on stderr and exit code 2.
@@ -211,7 +210,7 @@ def _outputs(model_path: Path | None, report_dir: Path | None, folder: Path, for
 @cli.command()
 @click.option("--out", "out_dir", default="moli-demo", show_default=True, type=click.Path(path_type=Path),
               help="Folder for report.html, the figures and model.json.")
-@click.option("--nmax", default=DEMO_NMAX, show_default=True, help="Largest order on the greedy path.")
+@click.option("--nmax", type=int, help="Largest order on the greedy path [default: as moli fit, max(10, p + 4)].")
 @click.option("--all-lists", is_flag=True, help="Also fit every list of each order (slower).")
 @_FORCE
 def demo(out_dir: Path, nmax: int, all_lists: bool, force: bool) -> None:
