@@ -173,7 +173,8 @@ def clearly_better(step: PathStep, than: PathStep, validation: IOData, x0: str =
     less could win by the validation record's chance alone, and on short records choosing
     among many such candidates loses on fresh data.
     """
-    if not step.stable and than.stable:
+    # the mean VAF clips each output at 0 and the errors do not: both must agree
+    if (not step.stable and than.stable) or not step.mean_vaf > than.mean_vaf:
         return False
     worse, spread = _paired_difference(_error_shares(than.model, validation, x0),
                                        _error_shares(step.model, validation, x0))
