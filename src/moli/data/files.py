@@ -18,7 +18,8 @@ from typing import TYPE_CHECKING, Sequence
 import numpy as np
 
 from .array_files import read_mat, read_npz
-from .frame_files import check_sheet, read_excel, read_parquet
+from .frame_files import read_parquet
+from .sheets import check_sheet, read_excel
 from .iodata import IOData
 from .tables import check_request, needed_columns, record
 from .text_files import check_text_options, read_text
@@ -151,7 +152,7 @@ def read_data(
     if suffix in TEXT_SUFFIXES:
         table = read_text(path, *text, needed)
     elif suffix == ".xlsx":
-        table = read_excel(path, chosen)
+        table = read_excel(path, chosen, needed)
     elif suffix == ".parquet":
         table = read_parquet(path, needed)
     else:
