@@ -136,3 +136,46 @@ def test_unreadable_binary_files_are_data_errors_naming_the_file(tmp_path):
         with pytest.raises(DataError, match=message) as caught:
             read_data(tmp_path / name, ["u1"], ["y1"])
         assert name in str(caught.value)
+
+
+def test_xlsx_converts_only_the_cells_of_the_needed_columns(tmp_path, monkeypatch):
+    from openpyxl.worksheet import _reader
+
+    table = frame()
+    for k in range(40):  # columns no request names: a comment or status column each
+        table[f"note{k}"] = [f"remark {k}-{row}" for row in range(len(table))]
+    table.to_excel(tmp_path / "wide.xlsx", index=False)
+    converted = []
+    parse_cell = _reader.WorkSheetParser.parse_cell
+    monkeypatch.setattr(_reader.WorkSheetParser, "parse_cell",
+                        lambda self, element: converted.append(element.get("r")) or parse_cell(self, element))
+    check(read_data(tmp_path / "wide.xlsx", ["heater", "fan"], ["T1", "T2", "T3"]), rtol=1e-14)
+    # the header row, then the date (time) column and the five channels of every row
+    assert len(converted) == table.shape[1] + 6 * len(table)
+    assert not any(cell.startswith(("H", "I", "J")) for cell in converted[table.shape[1]:])
+
+
+def test_xlsx_rows_left_out_or_blank_are_missing_samples_and_trailing_ones_dropped(tmp_path):
+    openpyxl = pytest.importorskip("openpyxl")
+    book = openpyxl.Workbook()
+    sheet = book.active
+    sheet.append(["u1", "y1", "note"])
+    for k in range(4):
+        sheet.append([k, 2 * k, "ok"])
+    sheet.append([])            # row 6: blank, a boundary
+    for k in range(4, 8):       # rows 7-10
+        sheet.append([k, 2 * k, "ok"])
+    sheet["A12"] = 8            # row 11 is left out of the file: a boundary too
+    sheet["B12"] = 16
+    for k in range(13, 16):     # rows 13-15: channels end, a note goes on
+        sheet.append([k - 4, 2 * k - 8, "ok"])
+    sheet["C16"] = "trailing note"   # a row with no channel value ends the record
+    book.save(tmp_path / "gaps.xlsx")
+    data = read_data(tmp_path / "gaps.xlsx", ["u1"], ["y1"], Ts=1.0)
+    assert tuple(data.segment_starts) == (0, 4, 8)
+    np.testing.assert_array_equal(data.u.ravel(), np.arange(12))
+    np.testing.assert_array_equal(data.y.ravel(), 2 * np.arange(12))
+    sheet["B14"] = "x"
+    book.save(tmp_path / "gaps.xlsx")
+    with pytest.raises(DataError, match=r"gaps.xlsx, sheet 'Sheet', row 14, column 'y1': 'x' is not a number"):
+        read_data(tmp_path / "gaps.xlsx", ["u1"], ["y1"], Ts=1.0)
