@@ -2,7 +2,7 @@
 
 :func:`read_data` reads text tables (.csv, .tsv, .txt), Excel workbooks (.xlsx),
 Parquet, NumPy ``.npz`` and MATLAB ``.mat`` files. The suffix picks the reader
-(:mod:`~moli.data.text_files`, :mod:`~moli.data.frame_files`,
+(:mod:`~moli.data.text_files`, :mod:`~moli.data.sheets`, :mod:`~moli.data.frame_files`,
 :mod:`~moli.data.array_files`); :mod:`~moli.data.tables` picks the channels, checks
 every cell and finds the sampling period. docs/data.md describes what is read and what
 each error means.
