@@ -102,7 +102,10 @@ def period_kind(name: str) -> str | None:
     >>> period_kind("Ts"), period_kind("Fs [Hz]"), period_kind("sampling rate"), period_kind("u")
     ('period', 'rate', 'rate', None)
     """
-    plain = " ".join(_words(BRACKETS.sub(" ", name)))
+    # no match reaches past the last closing bracket; searching there from each opening
+    # one would make the search quadratic in a name of many unclosed brackets
+    closed = max(name.rfind("]"), name.rfind(")")) + 1
+    plain = " ".join(_words(BRACKETS.sub(" ", name[:closed]) + name[closed:]))
     return "period" if plain in PERIOD_NAMES else "rate" if plain in RATE_NAMES else None
 
 
