@@ -7,6 +7,7 @@ import csv
 import errno
 import json
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -22,7 +23,8 @@ from moli.app import cli
 from moli.app.figures import measured_vs_simulated
 from moli.app.fleet_report import write_summary
 from moli.data import atomic_files
-from moli.data.display import FIGURE_LABEL_CHARS
+from moli.data.clocks import period_kind
+from moli.data.display import FIGURE_LABEL_CHARS, REPORT_NAME_CHARS
 from moli.errors import DataError, ModelFileError
 
 CHANNELS = ["--inputs", "u1", "--outputs", "y1"]
@@ -164,6 +166,25 @@ def test_long_names_are_shortened_in_figures():
     fig = measured_vs_simulated(data, moli.compare(model(1), data))
     labels = [ax.get_ylabel() for ax in fig.axes if ax.get_ylabel()]
     assert labels and all(len(label) <= FIGURE_LABEL_CHARS for label in labels)
+
+
+def test_a_megabyte_channel_name_is_read_and_reported_whole_in_the_model_only(tmp_path):
+    # unclosed brackets once made the period-column check quadratic in the name's length
+    name = "flow (" + "(" * 1_000_000
+    data = write_csv(tmp_path / "plant.csv", siso(names=(name, "u1")))
+    done = run("fit", str(data), "--inputs", "u1", "--outputs", name, "--nmax", "2",
+               "--out", str(tmp_path / "model.json"), "--report", str(tmp_path / "report"))
+    assert done.exit_code == 0, done.output + done.stderr
+    assert moli.load_model(tmp_path / "model.json").output_names == (name,)
+    page = (tmp_path / "report" / "report.html").read_text()
+    shown = re.findall(r"flow \(+…?", page)
+    assert shown and all(len(text) <= REPORT_NAME_CHARS for text in shown)
+
+
+def test_period_names_with_unclosed_brackets_match_as_before():
+    # the matches end at the last closing bracket; nothing after it is ever inside one
+    assert period_kind("Ts [s] (((") == "period" and period_kind("Fs [Hz] [[(") == "rate"
+    assert period_kind("Ts (s) [x") is None and period_kind("[Ts") == "period"
 
 
 def test_csv_cells_never_become_spreadsheet_formulas(tmp_path):

@@ -18,6 +18,7 @@ import numpy as np
 from . import figures
 from .._version import __version__
 from ..data.atomic_files import write_atomic
+from ..data.display import report_name
 from ..data.files import file_sha256
 from ..data.iodata import IOData, longest_segment
 from ..errors import DataError
@@ -79,7 +80,7 @@ def path_table(result: IdentificationResult) -> str:
                  f"{st.eta[1]:.3f}", "yes" if st.stable else "no", f"{st.seconds:.2f}"]
         mark = ' class="selected"' if i == result.selected_index else ""
         rows.append(f"<tr{mark}>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
-    legend = ", ".join(f"y{i + 1} = {html.escape(name)}" for i, name in enumerate(names))
+    legend = ", ".join(f"y{i + 1} = {html.escape(report_name(name))}" for i, name in enumerate(names))
     return (f"<div class='wide'><table><tr>{head}</tr>{''.join(rows)}</table></div>"
             f"<p class='note'>Outputs: {legend}.</p>")
 
@@ -90,8 +91,8 @@ def _model_facts(result: IdentificationResult) -> str:
     facts = {
         "indices": str(list(model.indices or ())),
         "order n": str(model.n),
-        "outputs": ", ".join(model.output_names),
-        "inputs": ", ".join(model.input_names),
+        "outputs": ", ".join(map(report_name, model.output_names)),
+        "inputs": ", ".join(map(report_name, model.input_names)),
         "Ts": f"{model.Ts:g}",
         "filter (wc, zeta)": f"{model.info.get('wc', float('nan')):.4g}, "
                              f"{model.info.get('zeta', float('nan')):.3f}",

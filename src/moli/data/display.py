@@ -11,11 +11,15 @@ from __future__ import annotations
 import math
 from typing import Any
 
-__all__ = ["figure_label", "console_text", "spreadsheet_cell", "FIGURE_LABEL_CHARS"]
+__all__ = ["figure_label", "console_text", "report_name", "spreadsheet_cell", "FIGURE_LABEL_CHARS",
+           "REPORT_NAME_CHARS"]
 
 # Longer names are cut in figures: a title or axis label is a few inches wide, and
 # matplotlib lays out text in time that grows with its length.
 FIGURE_LABEL_CHARS = 40
+# Longer names are cut in reports (the model file keeps them whole): a page that repeats
+# a megabyte-long name is no longer one to read.
+REPORT_NAME_CHARS = 200
 # Cells starting with these run as formulas in spreadsheet programs (OWASP, CSV injection).
 FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
 
@@ -32,7 +36,10 @@ def console_text(text: Any, limit: int | None = None) -> str:
     >>> console_text("flow\\nfake line")
     'flow\\\\nfake line'
     """
-    shown = "".join(ch if ch.isprintable() or ch == " " else repr(ch)[1:-1] for ch in str(text))
+    text = str(text)
+    if limit is not None:
+        text = text[: limit + 1]  # escapes only lengthen it: what lies beyond is never shown
+    shown = "".join(ch if ch.isprintable() or ch == " " else repr(ch)[1:-1] for ch in text)
     return shown if limit is None else _shortened(shown, limit)
 
 
@@ -45,6 +52,18 @@ def figure_label(text: Any, limit: int = FIGURE_LABEL_CHARS) -> str:
     'cost \\\\$a\\\\$'
     """
     return console_text(_shortened(str(text), limit)).replace("$", r"\$")
+
+
+def report_name(text: Any, limit: int = REPORT_NAME_CHARS) -> str:
+    """``text`` as a report or a sentence about the data shows it: control characters
+    escaped, shortened.
+
+    Examples
+    --------
+    >>> report_name("y" * 300)[-3:], len(report_name("y" * 300))
+    ('yy…', 200)
+    """
+    return console_text(text, limit)
 
 
 def spreadsheet_cell(value: Any) -> Any:

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from ..data.display import figure_label
+from ..data.display import figure_label, report_name
 from ..data.iodata import IOData, require_one_segment
 from ..errors import DataError, OptionError
 from ..models.statespace import StateSpaceModel
@@ -130,6 +130,7 @@ class ResidualAnalysis:
 
 
 def _verdict(name: str, white_p: float, independence_p: np.ndarray, inputs: tuple[str, ...], level: float) -> str:
+    name, inputs = report_name(name), tuple(map(report_name, inputs))  # a sentence, not the names' record
     if np.isnan(white_p):
         return f"{name}: residuals constant (an exact fit): not tested"
     white = f"white (Ljung-Box p = {white_p:.2g})" if white_p >= level else \
