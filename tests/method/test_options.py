@@ -17,6 +17,7 @@ BAD = {
     "order_rule": (1, "lowest"),
     "order": ("3", 0),
     "order_tolerance": ("1", -0.5),
+    "order_errors": ("1", -1.0),
     "omega": (3.0, [(0.1, -0.7)]),
     "tuning": (1, "grid-search"),
     "filter_grid": (2, "fine"),

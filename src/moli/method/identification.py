@@ -198,12 +198,12 @@ def identify(
         if selected is None and opts.order_rule == "refined" and not interrupted:
             stage = "order rule's refinements"
             selected, chosen = select_order_refined(path, lambda i: [path[i], *siblings(search, path, i)],
-                                                    refined, scored, opts.x0)
+                                                    refined, scored, opts.x0, opts.order_errors)
             path[selected] = unrefined[selected] = chosen
     except KeyboardInterrupt:   # the path as it was, and the order rule of an interrupted search
         skipped, selected = tuple(phases[phases.index(stage):]), _fixed_order(path, opts.order, True)
     if selected is None and opts.order_rule in ("paired", "refined"):
-        selected = select_order_paired(path, scored, opts.x0)
+        selected = select_order_paired(path, scored, opts.x0, opts.order_errors)
     elif selected is None:
         selected = select_order(path, opts.order_tolerance)
     if not skipped:

@@ -146,6 +146,9 @@ class IdentifyOptions:
         ``nmax``. None: the order rule chooses.
     order_tolerance : float, default 0.0
         Points of mean validation VAF of the "tolerance" rule (0: the best order).
+    order_errors : float, default 1.0
+        Paired standard errors of tolerance of the "paired" and "refined" rules (0: the
+        best order; larger: more parsimony).
     omega : sequence of (wc, zeta), optional
         Filter candidates, wc in rad per time unit of ``Ts``; None: the ``filter_grid``
         family scaled to ``Ts`` (:func:`moli.method.tuning.default_omega`).
@@ -226,6 +229,7 @@ class IdentifyOptions:
     order_rule: str = "tolerance"
     order: int | None = None
     order_tolerance: float = 0.0
+    order_errors: float = 1.0
     omega: tuple[tuple[float, float], ...] | None = None
     filter_grid: str = "wide"
     tuning: str = "grid"
@@ -260,6 +264,8 @@ class IdentifyOptions:
             "nmax": None if self.nmax is None else _integer("nmax", self.nmax, 1),
             "order_rule": _choice("order_rule", self.order_rule, ORDER_RULES),
             "order": None if self.order is None else _integer("order", self.order, 1),
+            "order_errors": _number("order_errors", self.order_errors,
+                                    "a number >= 0 (paired standard errors)", lambda z: z >= 0),
             "order_tolerance": _number("order_tolerance", self.order_tolerance,
                                        "a number >= 0 (points of VAF)", lambda t: t >= 0),
             "omega": _omega(self.omega),
