@@ -17,7 +17,6 @@ import scipy.linalg
 import moli
 from moli.method.refinement import refine
 from moli.method.refined_covariance import refined_covariance
-from moli.validation.prediction import deviations
 
 OMEGA = np.linspace(0.05, 3.0, 12)
 NOISE = 0.3          # against outputs of standard deviation 2.0 and 1.8
@@ -109,8 +108,7 @@ def test_directions_that_change_no_response_leave_the_bands_finite():
     for indices in ([2, 2], [1, 3]):
         start = moli.estimate(data, indices, moli.filter_polynomial(0.45, 0.7, indices))
         model = refine(start, data).model
-        u, y = deviations(model, data)
-        factor, info = refined_covariance(model, u, y, data.bounds)
+        factor, info = refined_covariance(model, data)
         # 17 observer-form parameters (D_o 8, B 8, G 1)
         assert info["parameters"] == 17
         if indices == [2, 2]:
@@ -129,7 +127,7 @@ def test_an_unstable_refined_model_has_no_covariance():
     model = refine(moli.estimate(data, [2, 2], moli.filter_polynomial(0.45, 0.7, [2, 2])), data).model
     unstable = model.with_matrices(1.2 * np.eye(4), model.B, model.C, model.D, dict(model.info), model.divisors)
     with pytest.raises(moli.DataError, match="stable"):
-        refined_covariance(unstable, data.u, data.y, data.bounds)
+        refined_covariance(unstable, data)
 
 
 def test_the_readme_example_and_the_demo_pass_their_own_checks():

@@ -23,6 +23,7 @@ from .noise_model import estimate_noise_model
 from .options import IdentifyOptions
 from .refinement import MAX_RADIUS
 from .refinement import refine_each
+from .refined_covariance import is_refined
 from .result import IdentificationResult
 from .order_rules import clearly_better, select_order, select_order_paired, select_order_refined, siblings
 from .search import PathStep, StructureSearch, greedy_path
@@ -237,7 +238,7 @@ def identify(
             stage = "covariance"
             kept = path[selected].model
             path[selected] = replace(path[selected], model=_attached(
-                estimate_covariance, "covariance", kept, searched if kept.info.get("refined") else fitted))
+                estimate_covariance, "covariance", kept, searched if is_refined(kept) else fitted))
             if opts.noise_model:
                 stage = "noise model"
                 path[selected] = replace(path[selected], model=_attached(estimate_noise_model, "noise_model",

@@ -21,19 +21,17 @@ feedthrough free: ``dA = dD_o C + D_o dC``, ``dC = H dG C`` with ``H = (I - G)^-
 from __future__ import annotations
 
 import math
-from typing import Sequence
 
 import numpy as np
 import scipy.linalg
 
+from ..data.iodata import IOData
 from ..errors import DataError
-from ..models.delays import shift_inputs
 from ..models.statespace import StateSpaceModel
 from .covariance import long_run_covariance
-from .observer_form import ObserverForm, observer_form
-from .refinement import OutputErrorProblem
+from .refinement import OutputErrorProblem, RefinementStart
 
-__all__ = ["refined_covariance"]
+__all__ = ["refined_covariance", "is_refined"]
 
 # Directions of the column-scaled Jacobian with a singular value below this share of the
 # largest change the simulated output by less than round-off of the parameters (about
@@ -41,20 +39,23 @@ __all__ = ["refined_covariance"]
 NULL_DIRECTION = 1e-8
 
 
-def refined_covariance(model: StateSpaceModel, u: np.ndarray, y: np.ndarray,
-                       bounds: Sequence[tuple[int, int]]) -> tuple[np.ndarray, dict[str, object]]:
-    """``cov_factor`` of a refined model from its output-error problem on a record, and its record.
+def is_refined(model: StateSpaceModel) -> bool:
+    """Whether ``model`` is a refinement that moved from its start (at least one accepted step):
+    its estimate, and so its covariance, is the output-error problem's."""
+    return bool(model.info.get("refined")) and model.info.get("refine_iterations", 0) > 0
+
+
+def refined_covariance(model: StateSpaceModel, data: IOData) -> tuple[np.ndarray, dict[str, object]]:
+    """``cov_factor`` of a refined model from its output-error problem on ``data``, and its record.
 
     Parameters
     ----------
     model : StateSpaceModel
-        A refined MOLI model (``info["refined"]``); ``info["refine_ridge"]`` sets the
+        A refined MOLI model (:func:`is_refined`); ``info["refine_ridge"]`` sets the
         penalty of the problem it solved.
-    u, y : ndarray, shape (N, m) and (N, p)
-        The record it was refined on, as deviations from the model's operating point
-        (inputs as recorded: the model's input delays are applied here).
-    bounds : sequence of (start, stop)
-        The record's segments: each has its own initial state, and no lag of the
+    data : IOData
+        The record it was refined on, raw or centred (offsets handled as
+        :func:`moli.compare`). Each segment has its own initial state, and no lag of the
         long-run covariance spans a boundary.
 
     Returns
@@ -62,30 +63,24 @@ def refined_covariance(model: StateSpaceModel, u: np.ndarray, y: np.ndarray,
     factor : ndarray, shape (n n + n m + p n + p m, k)
         ``Cov(vec[A, B, C, D]) = factor @ factor.T``.
     record : dict
-        What ``info["covariance"]`` records: the method, kernel width, rows, parameters.
+        What ``info["covariance"]`` records: the method, kernel width, rows, parameters
+        and the rank of the parameters' covariance.
 
     Raises
     ------
     DataError
         The model is unstable (its simulation error has no finite Jacobian).
     """
-    if not model.is_stable():
+    # the refinement's own start at these matrices: the problem, the initial states at
+    # their optimum, the simulation and its residual
+    start = RefinementStart(model, data.remove_means(model.y_offset, model.u_offset), True, 1.0)
+    if not start.stable:
         raise DataError("the covariance of a refined model needs a stable model")
-    form = observer_form(model)
-    starts = tuple(a for a, _ in bounds)
-    u = np.concatenate([shift_inputs(u[a:b], model.input_delays) for a, b in bounds])
-    problem = OutputErrorProblem(form, u, y, True, starts)
-    theta = problem.pack(form, np.zeros(problem.x0_size))
-    yhat, _, _ = problem.simulate(theta)
-    residual = problem.residual(yhat)
-    # the initial states at their optimum for these matrices, as the refinement left them
-    theta[-problem.x0_size :] = np.linalg.lstsq(problem.initial_state_columns(theta), residual, rcond=None)[0]
-    yhat, _, _ = problem.simulate(theta)
-    residual = problem.residual(yhat)
-    jac = problem.jacobian(theta, yhat, residual)[:, :-1]
+    problem, residual = start.problem, start.residual
+    jac = problem.jacobian(start.theta, start.yhat, residual)[:, :-1]
     if not (np.all(np.isfinite(jac)) and np.all(np.isfinite(residual))):
         raise DataError("the simulation error of the refined model is not finite on the record")
-    (N, p), k = y.shape, jac.shape[1]
+    (N, p), k = data.y.shape, jac.shape[1]
     norms = np.linalg.norm(jac, axis=0)
     norms[norms == 0] = 1.0
     rows = [jac / norms]
@@ -105,7 +100,7 @@ def refined_covariance(model: StateSpaceModel, u: np.ndarray, y: np.ndarray,
         raise DataError("the refined model's simulation error does not depend on its parameters on this record")
     kept = values > values[0] * NULL_DIRECTION
     scores = np.einsum("tpk,tp->tk", (jac / norms).reshape(N, p, k), residual.reshape(N, p))
-    long_run, width = long_run_covariance(scores, starts[1:])
+    long_run, width = long_run_covariance(scores, data.segment_starts[1:])
     # root (R^T R)^+ with R^T R = V diag(values^2) V^T; a square root of S from its eigenvalues
     eig, vectors = np.linalg.eigh(long_run)
     root = np.sqrt(np.clip(eig, 0.0, None))[:, None] * vectors.T
@@ -114,29 +109,23 @@ def refined_covariance(model: StateSpaceModel, u: np.ndarray, y: np.ndarray,
     # and the columns back in the parameters' units
     root = (root @ bread) * math.sqrt(N * p / max(N * p - int(kept.sum()), 1)) / norms
     parameters = k - problem.x0_size
-    factor = _matrix_directions(model, form, problem.feedthrough, root[:, :parameters]).T
+    factor = _matrix_directions(model, problem, root[:, :parameters]).T
     record = {"method": "output-error refinement, Gauss-Newton sandwich, Newey-West",
               "kernel_width": width, "rows": N, "parameters": parameters,
               "rank": int(kept.sum()) - problem.x0_size}
     return factor, record
 
 
-def _matrix_directions(model: StateSpaceModel, form: ObserverForm, feedthrough: bool, dtheta: np.ndarray) -> np.ndarray:
+def _matrix_directions(model: StateSpaceModel, problem: OutputErrorProblem, dtheta: np.ndarray) -> np.ndarray:
     """First-order changes of ``[A, B, C, D]`` (flattened, row-major) for each row of ``dtheta``,
-    laid out as the refinement packs its parameters: ``D_o``, ``B``, ``G``'s lower part, ``F``."""
-    n, p, m = model.n, model.p, model.m
-    count = dtheta.shape[0]
-    at = 0
-    d_inj = dtheta[:, at : at + n * p].reshape(count, n, p)
-    at += n * p
-    dB = dtheta[:, at : at + n * m].reshape(count, n, m)
-    at += n * m
-    lower = np.tril_indices(p, -1)
-    dG = np.zeros((count, p, p))
-    dG[:, lower[0], lower[1]] = dtheta[:, at : at + len(lower[0])]
-    at += len(lower[0])
-    dD = dtheta[:, at : at + p * m].reshape(count, p, m) if feedthrough else np.zeros((count, p, m))
-    H = scipy.linalg.solve_triangular(np.eye(p) - form.G, np.eye(p), lower=True, unit_diagonal=True)
-    dC = H @ dG @ model.C
-    dA = d_inj @ model.C + form.D @ dC
-    return np.concatenate([d.reshape(count, -1) for d in (dA, dB, dC, dD)], axis=1)
+    the refinement's parameters (read by its own :meth:`OutputErrorProblem.unpack`)."""
+    p = model.p
+    H = scipy.linalg.solve_triangular(np.eye(p) - problem.form.G, np.eye(p), lower=True, unit_diagonal=True)
+    out = []
+    for row in dtheta:
+        # the pieces are linear in the parameters: unpacking a direction gives its dD_o, dB, dG, dF
+        d, _ = problem.unpack(np.concatenate([row, np.zeros(problem.x0_size)]))
+        dC = H @ d.G @ model.C
+        dA = d.D @ model.C + problem.form.D @ dC
+        out.append(np.concatenate([dA.ravel(), d.B.ravel(), dC.ravel(), d.F.ravel()]))
+    return np.array(out).reshape(dtheta.shape[0], -1)

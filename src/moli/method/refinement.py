@@ -306,12 +306,13 @@ def refine_each(
         raise OptionError(f"max_radius must be in (0, 1], got {max_radius!r}")
     if (data.p, data.m) != (model.p, model.m):
         raise DataError(f"model has {model.p} outputs and {model.m} inputs, data {data.p} and {data.m}")
-    start = _Start(model, data, fit_x0, max_radius)
+    start = RefinementStart(model, data, fit_x0, max_radius)
     return [start.descend(ridge, iterations, tolerance) for ridge in ridges]
 
 
-class _Start:
-    """The start of a refinement, shared by the ridges refined from it."""
+class RefinementStart:
+    """The start of a refinement, shared by the ridges refined from it (and by the
+    covariance of a refined model, taken at its own matrices)."""
 
     def __init__(self, model: StateSpaceModel, data: IOData, fit_x0: bool, max_radius: float) -> None:
         self.model, self.data, self.fit_x0, self.max_radius = model, data, fit_x0, max_radius

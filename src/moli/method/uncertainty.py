@@ -21,7 +21,7 @@ from .row_blocks import WHOLE_ROWS
 from .rows import check_regression_rows, regression_rows, row_breaks, row_count
 from .filters import divisors
 from .observer_form import ObserverForm, observer_form
-from .refined_covariance import refined_covariance
+from .refined_covariance import is_refined, refined_covariance
 
 __all__ = ["estimate_covariance"]
 
@@ -55,8 +55,8 @@ def estimate_covariance(model: StateSpaceModel, data: IOData) -> StateSpaceModel
     ----------
     model : StateSpaceModel
         A MOLI model: it carries ``indices`` and its filters (``alpha`` or
-        ``divisors``). For a refined model (``info["refined"]`` with at least one
-        accepted step) the problem is its output-error refinement's, and the
+        ``divisors``). For a refined model (:func:`moli.method.refined_covariance.is_refined`)
+        the problem is its output-error refinement's, and the
         covariance is the Gauss-Newton sandwich at its own parameters
         (:func:`moli.method.refined_covariance.refined_covariance`).
     data : IOData
@@ -94,8 +94,8 @@ def estimate_covariance(model: StateSpaceModel, data: IOData) -> StateSpaceModel
         raise DataError("the covariance needs a MOLI model that carries its indices and filter polynomials "
                         "(from moli.estimate or moli.identify)")
     u, y = deviations(model, data)
-    if model.info.get("refined") and model.info.get("refine_iterations", 0) > 0:
-        factor, record = refined_covariance(model, u, y, data.bounds)
+    if is_refined(model):
+        factor, record = refined_covariance(model, data)
         attached = copy.deepcopy(model)
         attached.cov_factor, attached.info["covariance"] = factor, record
         return attached
