@@ -220,9 +220,9 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
                    f"dropped: the fit fell by more than {max_drop:g} points from fit_before, "
                    "the fit fit-many saved with the model", SCORES],
         )
-        click.echo(f"{'name':<24}{'fit before':>12}{'fit now':>10}{'drop':>8}  status")
+        click.echo(f"{'name':<{NAME_WIDTH}}{'fit before':>12}{'fit now':>10}{'drop':>8}  status")
         for row in sorted(rows, key=lambda r: -(r.get("drop") or 0)):
-            click.echo(f"{console_text(row['name'], NAME_WIDTH):<24}{_number(row.get('fit_before')):>12}"
+            click.echo(f"{console_text(row['name'], NAME_WIDTH):<{NAME_WIDTH}}{_number(row.get('fit_before')):>12}"
                        f"{_number(row.get('fit_now')):>10}{_number(row.get('drop')):>8}  "
                        + (f"failed: {console_text(row['error'])}" if row.get("error") else row["status"]))
         click.echo(f"{len(rows)} loops, {sum(flagged)} flagged; written to {csv_path} and {html_path}")

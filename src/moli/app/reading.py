@@ -35,7 +35,7 @@ class RunWarnings:
         self.messages: list[str] = []
 
     def add(self, caught: Sequence[warnings.WarningMessage]) -> None:
-        for message in dict.fromkeys(str(w.message) for w in caught):
+        for message in (str(w.message) for w in caught):
             if message not in self.messages:
                 self.messages.append(message)
                 click.echo(f"moli: warning: {console_text(message)}", err=True)

@@ -51,7 +51,8 @@ def figure_label(text: Any, limit: int = FIGURE_LABEL_CHARS) -> str:
     >>> figure_label("cost $a$")
     'cost \\\\$a\\\\$'
     """
-    return console_text(_shortened(str(text), limit)).replace("$", r"\$")
+    # escaped first: the escapes count towards the limit, so no label outgrows it
+    return _shortened(console_text(text).replace("$", r"\$"), limit)
 
 
 def report_name(text: Any, limit: int = REPORT_NAME_CHARS) -> str:

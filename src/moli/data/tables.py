@@ -18,7 +18,7 @@ from .cells import is_missing, parse_numbers
 from .clocks import find_clock, looks_like_time, period_kind, period_notice, stated_period
 from .iodata import IOData
 from .timing import (
-    TIME_COLUMNS, TIME_TOLERANCE, check_period, check_tolerance, datetimes_to_seconds,
+    TIME_TOLERANCE, check_period, check_tolerance, datetimes_to_seconds,
     gap_starts, irregular_warning, iso_to_seconds, sampling_period,
 )
 from ..errors import DataError, IrregularSamplingWarning, OptionError, SamplingPeriodWarning
@@ -125,7 +125,7 @@ def needed_columns(request: Request, names: Sequence[str]) -> set[str] | None:
         return channels | periods | {request.time_column}
     if request.time_column is False:
         return channels | periods
-    clocks = {name for name in names if name.strip().lower() in TIME_COLUMNS or looks_like_time(name)}
+    clocks = {name for name in names if looks_like_time(name)}   # the standard names among them
     return channels | periods | clocks | set(names[:1])
 
 

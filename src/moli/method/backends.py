@@ -8,6 +8,7 @@ so ``import moli`` stays light and the core needs none of them.
 from __future__ import annotations
 
 import concurrent.futures
+import concurrent.futures.process
 import contextlib
 import os
 import time
@@ -252,10 +253,12 @@ def _local_processes(workers: int, function: Callable[..., Any],
                 index = futures[future]
                 try:
                     yield index, future.result(), None
-                except Exception as exc:
+                except concurrent.futures.process.BrokenProcessPool as exc:
                     yield index, None, LostWorkerError(
                         f"its worker process died twice (killed, out of memory or crashed): "
                         f"{type(exc).__name__}: {exc}; first: {type(lost[index]).__name__}: {lost[index]}")
+                except Exception as exc:        # the call's own error (unpicklable result, ...): as it is
+                    yield index, None, exc
 
     def done() -> Done:
         yield from first_try()

@@ -9,10 +9,11 @@ import numpy as np
 
 from ..data.display import console_text
 from ..data.iodata import IOData
-from ..errors import DataError, OptionError
+from ..errors import DataError
 from .metrics import nrmse_fit, vaf
 from ..models.statespace import StateSpaceModel
-from .prediction import X0_CHOICES, checked_deviations, initial_state, predicted_deviations
+# X0_CHOICES is read from here by the options and the command line
+from .prediction import X0_CHOICES, checked_deviations, initial_state, predicted_deviations  # noqa: F401
 
 __all__ = ["Comparison", "estimate_initial_state", "compare", "same_period"]
 
