@@ -38,6 +38,8 @@ BAD = {
     "regularization": (1, "lasso"),
     "delays": (1.5, -1),
     "search_samples": (2.0**15, 499),
+    "time": ("sampled", 1),
+    "input_hold": ("linear", None),
 }
 
 

@@ -119,7 +119,7 @@ def filter_polynomial(
     >>> filter_polynomial(0.5, 1.0, [1])
     array([ 1.        , -0.60653066])
     """
-    return _poly(filter_roots(wc, zeta, indices, Ts, s))
+    return monic_from_roots(filter_roots(wc, zeta, indices, Ts, s))
 
 
 def check_alpha(alpha: Sequence[float]) -> np.ndarray:
@@ -158,7 +158,7 @@ def _schur_stable(coeffs: np.ndarray) -> bool:
     return True
 
 
-def _poly(roots: np.ndarray) -> np.ndarray:
+def monic_from_roots(roots: np.ndarray) -> np.ndarray:
     """Real coefficients of the monic polynomial with these roots, as ``np.poly``.
 
     The factors ``q - r`` are multiplied in the given order by the same convolutions
@@ -198,7 +198,7 @@ def _root_groups(roots: np.ndarray, tol: float) -> list[tuple]:
     return groups
 
 
-def _select(groups: list[tuple], degree: int) -> list[tuple] | None:
+def select_groups(groups: list[tuple], degree: int) -> list[tuple] | None:
     """Slowest groups filling ``degree`` (an odd degree first takes the slowest real root)."""
     chosen: list[tuple] = []
     budget = degree
@@ -221,11 +221,11 @@ def _select(groups: list[tuple], degree: int) -> list[tuple] | None:
 def _pick_divisor(roots: np.ndarray, degree: int) -> np.ndarray:
     """Coefficients of the divisor of the given degree chosen from ``roots`` by the root rule."""
     for tol in _REAL_TOLERANCES:
-        chosen = _select(_root_groups(roots, tol), degree)
+        chosen = select_groups(_root_groups(roots, tol), degree)
         if chosen is not None:
             values = [r for g in chosen for r in g]
             dtype = complex if any(len(g) == 2 for g in chosen) else float
-            return _poly(np.array(values, dtype=dtype))
+            return monic_from_roots(np.array(values, dtype=dtype))
     raise FilterError(
         f"alpha with roots {np.round(roots, 6).tolist()} has no real root, so it has no "
         f"real divisor of degree {degree}; build alpha with filter_polynomial(..., indices) "
@@ -294,7 +294,7 @@ def filter_divisors(
 def _divisor_table(roots: np.ndarray, indices: Indices) -> dict[int, np.ndarray]:
     """The filter with these roots (degree ``max(indices)``) and its divisors, by degree."""
     nbar = roots.size
-    return {l: (_poly(roots) if l == nbar else _pick_divisor(roots, l)) for l in set(indices)}
+    return {l: (monic_from_roots(roots) if l == nbar else _pick_divisor(roots, l)) for l in set(indices)}
 
 
 def filter_rows(

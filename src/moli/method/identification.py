@@ -30,6 +30,7 @@ from .search import PathStep, StructureSearch, greedy_path
 from .selection_check import warn_if_short_selection
 from .tuning import default_omega
 from .uncertainty import estimate_covariance
+from .continuous.identification import ContinuousResult, identify_continuous
 
 __all__ = ["IdentificationResult", "identify"]
 
@@ -49,7 +50,7 @@ def identify(
     *,
     progress: Callable[[PathStep], None] | None = None,
     **overrides: Any,
-) -> IdentificationResult:
+) -> IdentificationResult | ContinuousResult:
     """Identify a multivariable state-space model with MOLI-ZOFT.
 
     Parameters
@@ -73,6 +74,8 @@ def identify(
     Returns
     -------
     IdentificationResult
+        Or, with ``time="continuous"``, a :class:`ContinuousResult` whose model is a
+        :class:`ContinuousModel` (docs/continuous.md).
 
     Raises
     ------
@@ -114,10 +117,12 @@ def identify(
                 f"validation has {validation.p} outputs and {validation.m} inputs, "
                 f"data have {data.p} and {data.m}"
             )
-        if not same_period(validation.Ts, data.Ts):
+        if opts.time == "discrete" and not same_period(validation.Ts, data.Ts):
             raise DataError(f"validation is sampled every Ts = {validation.Ts:g}, data every "
                             f"Ts = {data.Ts:g}; both records must share the sampling period")
         estimation, source = data, "given"
+    if opts.time == "continuous":
+        return identify_continuous(estimation, validation, source, opts, progress)
     estimation = long_segments(estimation, opts.path_end(data.p), opts.feedthrough is not False)
     if opts.center:
         estimation = estimation.remove_means()

@@ -30,6 +30,8 @@ REFINE_CHOICES = ("none", "selected", "path", "guarded")
 EVAPORATOR_CHOICES = {"order_tolerance": 1.0, "filter_grid": "paper", "refine": "none", "refine_ridge": 1.0}
 ORDER_RULES = ("tolerance", "paired", "refined")
 PRESETS = ("default", "improved", "bounded", "paper")
+TIMES = ("discrete", "continuous")
+INPUT_HOLDS = ("zoh", "foh")
 # Shortest search window: a few hundred samples still rank the filters and lists of
 # small plants; below that a window says too little about the record.
 MIN_SEARCH_SAMPLES = 500
@@ -213,6 +215,15 @@ class IdentifyOptions:
         the selected list is re-estimated on the whole record (docs/method.md §15);
         None searches the whole record however long. At least
         :data:`MIN_SEARCH_SAMPLES`.
+    time : {"discrete", "continuous"}, default "discrete"
+        A sampled model, or ``dx/dt = A x + B u`` identified directly from the record's
+        time stamps, regular or not (docs/continuous.md): ``omega`` is then in rad per
+        time unit of the stamps, the order rules "tolerance" and "paired" apply, and
+        the feedthrough, refinement, noise model, per-output filters, delays and
+        ``search_samples`` do not.
+    input_hold : {"zoh", "foh"}, default "zoh"
+        Continuous time: the input between samples, held or linear (the outputs are
+        taken as linear between samples).
 
     Examples
     --------
@@ -250,6 +261,8 @@ class IdentifyOptions:
     regularization: str = "none"
     delays: int | tuple[int, ...] | str = 0
     search_samples: int | None = 2**15
+    time: str = "discrete"
+    input_hold: str = "zoh"
 
     def __post_init__(self) -> None:
         radius = self.max_radius
@@ -289,6 +302,8 @@ class IdentifyOptions:
             "delays": _delays(self.delays),
             "search_samples": None if self.search_samples is None else _integer(
                 "search_samples", self.search_samples, MIN_SEARCH_SAMPLES),
+            "time": _choice("time", self.time, TIMES),
+            "input_hold": _choice("input_hold", self.input_hold, INPUT_HOLDS),
         }
         if checked["order"] is not None and checked["nmax"] is not None and checked["order"] > checked["nmax"]:
             raise _fail("order", f"at most nmax = {checked['nmax']} (the end of the path)", self.order)

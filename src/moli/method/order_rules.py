@@ -19,7 +19,7 @@ from ..validation.comparison import compare
 from .search import PathStep, StructureSearch
 from .structure import raised
 
-__all__ = ["select_order", "select_order_paired", "select_order_refined", "siblings", "clearly_better"]
+__all__ = ["select_order", "select_order_paired", "select_by_shares", "select_order_refined", "siblings", "clearly_better"]
 
 # Batches of the paired order rule: enough for a standard error, each long enough
 # (tens of samples on short records) to hold the errors' serial correlation.
@@ -74,13 +74,24 @@ def select_order_paired(path: list[PathStep], validation: IOData, x0: str = "zer
     -------
     int
     """
+    return select_by_shares(path, lambda i: _error_shares(path[i].model, validation, x0), z)
+
+
+def select_by_shares(path: list, shares: Callable[[int], np.ndarray], z: float = PAIRED_Z) -> int:
+    """:func:`select_order_paired` given each path model's per-sample error shares.
+
+    ``shares(i)`` is model ``i``'s squared validation error per sample, in points
+    (summed over the samples: the mean over the outputs of
+    ``100 |e_j|^2 / |y_j - mean(y_j)|^2``). Any path whose steps have ``order``,
+    ``stable`` and ``mean_vaf`` will do (the continuous-time path uses it too).
+    """
     eligible = [i for i, st in enumerate(path) if st.stable] or list(range(len(path)))
     best = max(eligible, key=lambda i: path[i].mean_vaf)
-    reference = _error_shares(path[best].model, validation, x0)
+    reference = shares(best)
     for i in sorted(eligible, key=lambda i: path[i].order):
         if i == best:
             return i
-        worse, spread = _paired_difference(_error_shares(path[i].model, validation, x0), reference)
+        worse, spread = _paired_difference(shares(i), reference)
         if np.isfinite(worse) and worse <= z * spread:
             return i
     return best

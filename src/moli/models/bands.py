@@ -145,7 +145,9 @@ def magnitude_bands(
     True
     """
     confidence = _check_options(confidence, method, samples, seed)
-    z = np.exp(1j * _frequencies(omega) * model.Ts)
+    w = _frequencies(omega)
+    # a continuous model (no Ts) is evaluated on the imaginary axis
+    z = 1j * w if getattr(model, "Ts", None) is None else np.exp(1j * w * model.Ts)
     factor = _factor(model)
     if method == "monte_carlo":
         A, B, C, D = _draws(model, samples, seed)

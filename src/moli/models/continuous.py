@@ -8,20 +8,28 @@ and a continuous model has none of them (docs/diagnostics.md §2).
 
 from __future__ import annotations
 
+import json
 import warnings
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 import scipy.linalg
 
+from .._version import __version__
+from ..data.atomic_files import write_atomic
 from ..errors import DataError, OptionError
-from .checks import Dimensions
+from .checks import Dimensions, matrix
 from .frequency import check_omega, frequency_response
-from .statespace import StateSpaceModel
+from .propagation import propagate
+from .statespace import FILE_FORMAT, StateSpaceModel
 
-__all__ = ["ContinuousModel", "CONVERSION_METHODS", "to_continuous", "discretize"]
+__all__ = ["ContinuousModel", "CONVERSION_METHODS", "HOLDS", "to_continuous", "discretize"]
 
 CONVERSION_METHODS = ("zoh", "tustin")
+# Inter-sample assumptions of the input: held from each sample to the next, or linear.
+HOLDS = ("zoh", "foh")
 # Poles closer than this (relative to the model's scale) to z = 0, or to the negative
 # real axis in angle, have no real continuous-time counterpart worth trusting: the
 # logarithm there is infinite or complex, and round-off of order sqrt(eps) in a
@@ -33,8 +41,9 @@ POLE_TOLERANCE = float(np.sqrt(np.finfo(float).eps))
 class ContinuousModel(Dimensions):
     """Continuous-time model ``x' = A x + B u(t - tau)``, ``y = C x + D u(t - tau)``.
 
-    Built by :meth:`StateSpaceModel.to_continuous`; acts on deviations from the
-    operating point ``(u_offset, y_offset)`` like the sampled model it came from.
+    Built by :meth:`StateSpaceModel.to_continuous`, or identified directly by
+    ``moli.identify(..., time="continuous")`` (docs/continuous.md); acts on deviations
+    from the operating point ``(u_offset, y_offset)``.
 
     Attributes
     ----------
@@ -45,6 +54,9 @@ class ContinuousModel(Dimensions):
     input_delays : tuple of float
         Dead time ``tau_j`` of each input in time units (the sampled model's delay in
         samples times its ``Ts``).
+    cov_factor : ndarray, shape (n*n + n*m + p*n + p*m, r), optional
+        ``F`` with ``cov(vec[A, B, C, D]) = F F'`` (an identified model carries it; the
+        gain and frequency-response bands of :mod:`moli.models.bands` use it).
 
     Examples
     --------
@@ -66,6 +78,7 @@ class ContinuousModel(Dimensions):
     y_offset: np.ndarray
     u_offset: np.ndarray
     input_delays: tuple[float, ...]
+    cov_factor: np.ndarray | None = None
 
     def __post_init__(self) -> None:
         n, m, p = self.A.shape[0], self.B.shape[1], self.C.shape[0]
@@ -75,6 +88,12 @@ class ContinuousModel(Dimensions):
                 raise DataError(f"{name} must have shape {shape}, got {getattr(self, name).shape}")
         if (len(self.output_names), len(self.input_names), len(self.input_delays)) != (p, m, m):
             raise DataError(f"need {p} output names, {m} input names and {m} input delays")
+        if self.cov_factor is not None:
+            rows = n * n + n * m + p * n + p * m
+            factor = matrix("cov_factor", self.cov_factor)
+            if factor.shape[0] != rows:
+                raise DataError(f"cov_factor must have {rows} rows (vec of A, B, C, D), got {factor.shape[0]}")
+            object.__setattr__(self, "cov_factor", factor)
 
     def __repr__(self) -> str:
         return f"ContinuousModel(n={self.n}, p={self.p}, m={self.m}, stable={self.is_stable()})"
@@ -86,6 +105,110 @@ class ContinuousModel(Dimensions):
     def is_stable(self) -> bool:
         """True when every pole has a negative real part."""
         return bool(self.n == 0 or np.max(self.poles().real) < 0.0)
+
+    def simulate(self, u: object, t: object = None, hold: str = "zoh") -> np.ndarray:
+        """Output deviations at the stamps ``t`` for the input deviations ``u``.
+
+        Exact for the stated inter-sample behaviour of the input (docs/continuous.md §2).
+
+        Parameters
+        ----------
+        u : array_like, shape (N, m)
+            Input deviations at the stamps (1-D accepted when m = 1).
+        t : array_like, shape (N,)
+            Strictly increasing time stamps, any spacing.
+        hold : {"zoh", "foh"}, default "zoh"
+            The input between stamps: held at each sample, or linear.
+
+        Returns
+        -------
+        ndarray, shape (N, p)
+
+        Examples
+        --------
+        >>> model = ContinuousModel(np.array([[-1.0]]), np.array([[1.0]]), np.array([[1.0]]),
+        ...                         np.zeros((1, 1)), ("y1",), ("u1",), np.zeros(1), np.zeros(1), (0.0,))
+        >>> y = model.simulate(np.ones(3), [0.0, 1.0, 3.0])
+        >>> np.allclose(y[:, 0], 1 - np.exp(-np.array([0.0, 1.0, 3.0])))
+        True
+        """
+        if t is None:
+            raise DataError("a continuous model needs the time stamps t to simulate: simulate(u, t), "
+                            "t of shape (N,), increasing")
+        if hold not in HOLDS:
+            raise OptionError(f"hold must be one of {HOLDS}, got {hold!r}")
+        if any(self.input_delays):
+            raise DataError(f"the model has input delays {list(self.input_delays)}: simulate its sampled "
+                            "form (to_discrete(Ts).simulate) instead")
+        inputs = np.array(u, dtype=float, ndmin=1)
+        inputs = inputs[:, None] if inputs.ndim == 1 else inputs
+        stamps = np.array(t, dtype=float, ndmin=1)
+        if inputs.ndim != 2 or inputs.shape[1] != self.m or not np.all(np.isfinite(inputs)):
+            raise DataError(f"u must be finite with shape (N, {self.m}), got shape {np.shape(u)}")
+        if stamps.shape != (inputs.shape[0],) or not np.all(np.isfinite(stamps)):
+            raise DataError(f"t must be finite with shape ({inputs.shape[0]},) (one stamp per row of u), "
+                            f"got shape {np.shape(t)}")
+        if np.any(np.diff(stamps) <= 0):
+            k = int(np.flatnonzero(np.diff(stamps) <= 0)[0]) + 1
+            raise DataError(f"t must increase: t[{k}] = {stamps[k]:g} follows t[{k - 1}] = {stamps[k - 1]:g}")
+        states = propagate(self.A, self.B, stamps - stamps[0], inputs[:, :, None],
+                           np.full((self.m, 1), hold == "foh"))[:, :, 0]
+        return states @ self.C.T + inputs @ self.D.T
+
+    def static_gain(self) -> np.ndarray:
+        """``D - C A^-1 B``, shape (p, m): the steady output change per unit input step."""
+        try:
+            return self.D - self.C @ np.linalg.solve(self.A, self.B)
+        except np.linalg.LinAlgError:
+            raise DataError("the model has a pole at s = 0 (an integrator): its static gain is infinite") from None
+
+    def pole_table(self) -> list[str]:
+        """Lines describing each pole: time constant, or natural frequency and damping; then the static gains."""
+        lines = ["poles (rad per time unit):"]
+        for pole in sorted(self.poles(), key=lambda z: (abs(z), z.imag)):
+            if pole.imag < 0:
+                continue
+            if pole.imag == 0:
+                kind = f"time constant {-1 / pole.real:.4g}" if pole.real < 0 else "unstable"
+                lines.append(f"  s = {pole.real:.5g}: {kind}")
+            else:
+                wn = abs(pole)
+                lines.append(f"  s = {pole.real:.5g} +- {pole.imag:.5g}j: natural frequency {wn:.4g}, "
+                             f"damping {-pole.real / wn:.3g}")
+        if self.is_stable():
+            gain = self.static_gain()
+            for j, name in enumerate(self.output_names):
+                cells = ", ".join(f"{u}: {gain[j, i]:.4g}" for i, u in enumerate(self.input_names))
+                lines.append(f"static gain of {name}: {cells}")
+        return lines
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-serialisable description (read back by :func:`moli.load_model`)."""
+        return {
+            "format": FILE_FORMAT, "version": __version__, "time": "continuous",
+            "A": self.A.tolist(), "B": self.B.tolist(), "C": self.C.tolist(), "D": self.D.tolist(),
+            "output_names": list(self.output_names), "input_names": list(self.input_names),
+            "y_offset": self.y_offset.tolist(), "u_offset": self.u_offset.tolist(),
+            "input_delays": list(self.input_delays),
+            "cov_factor": None if self.cov_factor is None else self.cov_factor.tolist(),
+        }
+
+    @classmethod
+    def from_dict(cls, content: dict[str, Any]) -> "ContinuousModel":
+        """The model :meth:`to_dict` describes (fields checked)."""
+        arrays = {name: matrix(name, content[name]) for name in ("A", "B", "C", "D")}
+        return cls(
+            arrays["A"], arrays["B"], arrays["C"], arrays["D"], tuple(content["output_names"]),
+            tuple(content["input_names"]), np.array(content["y_offset"], dtype=float),
+            np.array(content["u_offset"], dtype=float), tuple(float(d) for d in content["input_delays"]),
+            content.get("cov_factor"),
+        )
+
+    def save(self, path: str | Path) -> None:
+        """Write the model to a JSON file, whole or not at all."""
+        if not isinstance(path, (str, Path)):
+            raise DataError(f"path must be a str or Path, got {type(path).__name__}")
+        write_atomic(path, json.dumps(self.to_dict(), indent=1))
 
     def frequency_response(self, omega: object) -> np.ndarray:
         """``C (j omega I - A)^-1 B + D``, times ``exp(-j omega tau_j)`` per input: shape (F, p, m).

@@ -8,13 +8,14 @@ from typing import Any
 
 from .._version import __version__
 from ..errors import DataError, ModelFileError
+from .continuous import ContinuousModel
 from .statespace import FILE_FORMAT, StateSpaceModel
 
 __all__ = ["model_from_dict", "load_model"]
 
 
-def model_from_dict(content: dict[str, Any]) -> StateSpaceModel:
-    """Rebuild a model from :meth:`StateSpaceModel.to_dict` output, checking it."""
+def model_from_dict(content: dict[str, Any]) -> StateSpaceModel | ContinuousModel:
+    """Rebuild a model from :meth:`StateSpaceModel.to_dict` (or the continuous model's) output, checking it."""
     if not isinstance(content, dict):
         raise ModelFileError(f"not a moli model file: it holds a JSON {type(content).__name__}, "
                              "not an object with 'format': 'moli-model'")
@@ -27,6 +28,8 @@ def model_from_dict(content: dict[str, Any]) -> StateSpaceModel:
             f"{__version__} cannot read"
         )
     try:
+        if content.get("time") == "continuous":
+            return ContinuousModel.from_dict(content)
         return StateSpaceModel(
             content["A"], content["B"], content["C"], content["D"], content["Ts"],
             content["output_names"], content["input_names"], content.get("indices"),
@@ -43,8 +46,8 @@ def model_from_dict(content: dict[str, Any]) -> StateSpaceModel:
         raise ModelFileError(f"model file is inconsistent: {exc}") from None
 
 
-def load_model(path: str | Path) -> StateSpaceModel:
-    """Read a model written by :meth:`StateSpaceModel.save`.
+def load_model(path: str | Path) -> StateSpaceModel | ContinuousModel:
+    """Read a model written by :meth:`StateSpaceModel.save` or :meth:`ContinuousModel.save`.
 
     Parameters
     ----------
@@ -52,7 +55,7 @@ def load_model(path: str | Path) -> StateSpaceModel:
 
     Returns
     -------
-    StateSpaceModel
+    StateSpaceModel or ContinuousModel
     """
     if not isinstance(path, (str, Path)):
         raise ModelFileError(f"path must be a str or Path, got {type(path).__name__}")

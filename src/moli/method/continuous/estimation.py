@@ -1,0 +1,170 @@
+"""Continuous-time least squares: a record's stamps, its filtered regressors, the fit.
+
+docs/continuous.md §2-§4. A record is cut into segments (its own segments, and steps
+longer than ``gap_factor`` median steps); every segment's filters start from zero at
+its first stamp. For a filter ``alpha`` of degree ``nbar`` in the filter's time unit
+``tau = wc t``, the observer state holds every channel filtered by
+``s^t / alpha(s)``, ``t = 0..nbar-1``: the state of ``xi' = F xi + e_nbar z``, ``F``
+the companion matrix of ``alpha``, propagated exactly between stamps
+(:func:`~moli.models.propagation.propagate`). Each output's regression is
+the discrete one (docs/method.md §3) with ``s`` in place of ``q``, so the discrete
+route from one triangular factor per filter to every output's problem carries over
+unchanged, and so does the observer form (docs/method.md §4): ``x' = A x + B u``,
+``y = C x`` in units of ``tau``, then ``A = wc A_tau``, ``B = wc B_tau``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+
+from ...data.iodata import IOData
+from ...errors import DataError
+from ..estimation import _observer_form
+from ..regression import _quotient_map, _small_problems
+from ..structure import Indices
+from .filters import unit_divisors
+from ...models.propagation import propagate
+
+__all__ = ["StampedRecord", "stamped_record", "filter_factor", "fit_list", "simulate_stamped"]
+
+# A step longer than this many median steps starts a new segment (samples missing):
+# the input over it is unknown, so no inter-sample assumption bridges it.
+GAP_FACTOR = 5.0
+
+
+@dataclass(frozen=True)
+class StampedRecord:
+    """A record as the continuous-time identification reads it.
+
+    Attributes
+    ----------
+    times : tuple of ndarray
+        Each segment's stamps (strictly increasing).
+    y, u : tuple of ndarray
+        Each segment's outputs (N_s, p) and inputs (N_s, m).
+    """
+
+    times: tuple[np.ndarray, ...]
+    y: tuple[np.ndarray, ...]
+    u: tuple[np.ndarray, ...]
+
+    @property
+    def p(self) -> int:
+        return self.y[0].shape[1]
+
+    @property
+    def m(self) -> int:
+        return self.u[0].shape[1]
+
+    def steps(self) -> np.ndarray:
+        """Every step between consecutive stamps of a segment."""
+        return np.concatenate([np.diff(t) for t in self.times])
+
+    def durations(self) -> np.ndarray:
+        return np.array([t[-1] - t[0] for t in self.times])
+
+    def rows(self, skip: int) -> int:
+        return sum(max(t.size - skip, 0) for t in self.times)
+
+
+def stamped_record(data: IOData, gap_factor: float = GAP_FACTOR) -> StampedRecord:
+    """``data``'s segments, cut again at steps over ``gap_factor`` median steps.
+
+    The stamps are ``data.times`` when the record carries them, else ``k * Ts``.
+    """
+    stamps = data.time()
+    pieces: list[tuple[int, int]] = []
+    for start, stop in data.bounds:
+        steps = np.diff(stamps[start:stop])
+        if np.any(steps <= 0):
+            k = start + 1 + int(np.flatnonzero(steps <= 0)[0])
+            raise DataError(f"time stamps must increase within a segment: sample {k} is at "
+                            f"{stamps[k]:g}, after {stamps[k - 1]:g}")
+        pieces.append((start, stop))
+    steps = np.concatenate([np.diff(stamps[a:b]) for a, b in pieces])
+    if steps.size == 0:
+        raise DataError("the record has no two stamps in one segment: continuous time needs steps")
+    limit = gap_factor * float(np.median(steps))
+    cut: list[tuple[int, int]] = []
+    for start, stop in pieces:
+        breaks = start + 1 + np.flatnonzero(np.diff(stamps[start:stop]) > limit)
+        edges = [start, *breaks.tolist(), stop]
+        cut += [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b - a >= 2]
+    return StampedRecord(
+        tuple(stamps[a:b].copy() for a, b in cut), tuple(data.y[a:b] for a, b in cut),
+        tuple(data.u[a:b] for a, b in cut),
+    )
+
+
+def _companion(alpha: np.ndarray) -> np.ndarray:
+    """``F`` with ``xi_t = s^t / alpha(s) z``: ones above the diagonal, last row ``-a``."""
+    nbar = alpha.size - 1
+    F = np.diag(np.ones(nbar - 1), 1)
+    F[-1] = -alpha[:0:-1]
+    return F
+
+
+def observer_rows(record: StampedRecord, wc: float, alpha: np.ndarray, linear_inputs: bool,
+                  skip: int) -> list[np.ndarray]:
+    """Per segment, the rows ``[xi, y]`` (``xi`` column ``r nbar + t``), the first ``skip`` dropped."""
+    nbar = alpha.size - 1
+    F = _companion(alpha)
+    G = np.eye(nbar)[:, -1:]
+    p, m = record.p, record.m
+    linear = np.array([[True] * p + [linear_inputs] * m])
+    rows = []
+    for t, y, u in zip(record.times, record.y, record.u):
+        z = np.concatenate([y, u], axis=1)
+        xi = propagate(F, G, wc * (t - t[0]), z[:, None, :], linear)              # (N, nbar, c)
+        rows.append(np.concatenate([xi.transpose(0, 2, 1).reshape(t.size, -1), y], axis=1)[skip:])
+    return rows
+
+
+def filter_factor(record: StampedRecord, wc: float, alpha: np.ndarray, linear_inputs: bool,
+                  skip: int) -> np.ndarray:
+    """Triangular factor of the stacked rows of :func:`observer_rows`."""
+    rows = np.concatenate(observer_rows(record, wc, alpha, linear_inputs, skip))
+    return scipy.linalg.qr(rows, mode="r", check_finite=False)[0][: rows.shape[1]]
+
+
+def output_problems(factor: np.ndarray, alpha: np.ndarray, divisors: list[np.ndarray],
+                    p: int, m: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Each output's least-squares problem ``(matrix, target)`` reduced by ``factor``."""
+    problems = []
+    for j, alpha_j in enumerate(divisors):
+        quotient = _quotient_map(alpha, alpha_j)
+        matrix, target = _small_problems(factor[None], quotient[None], p + m, p, j, 0)
+        problems.append((matrix[0], target[0]))
+    return problems
+
+
+def solve_scaled(matrix: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """Least squares with unit-norm columns (the minimum-norm solution when rank deficient)."""
+    scale = np.linalg.norm(matrix, axis=0)
+    scale[scale == 0] = 1.0
+    theta = np.linalg.lstsq(matrix / scale, target, rcond=None)[0]
+    return theta / scale
+
+
+def fit_list(factor: np.ndarray, wc: float, zeta: float, indices: Indices, s: float, m: int
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[np.ndarray]]:
+    """``A, B, C`` (per time unit) of the list fitted with the filter ``(wc, zeta)``, and its thetas."""
+    alpha, *divisors = unit_divisors(zeta, indices, s)
+    p = len(indices)
+    thetas = [solve_scaled(*problem) for problem in output_problems(factor, alpha, divisors, p, m)]
+    A, B, C, _ = _observer_form([t[None] for t in thetas], [divisors], indices, m)
+    return wc * A[0], wc * B[0], C[0], thetas
+
+
+def simulate_stamped(A: np.ndarray, B: np.ndarray, C: np.ndarray, record: StampedRecord,
+                     linear_inputs: bool) -> list[np.ndarray]:
+    """Each segment's simulated outputs from the zero state."""
+    linear = np.full((record.m, 1), linear_inputs)
+    out = []
+    for t, u in zip(record.times, record.u):
+        states = propagate(A, B, t - t[0], u[:, :, None], linear)[:, :, 0]
+        out.append(states @ C.T)
+    return out
