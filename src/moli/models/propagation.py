@@ -58,8 +58,8 @@ def interval_maps(F: np.ndarray, G: np.ndarray, h: np.ndarray) -> tuple[np.ndarr
 
 
 def propagate(F: np.ndarray, G: np.ndarray, times: np.ndarray, signal: np.ndarray,
-              linear: np.ndarray) -> np.ndarray:
-    """States at every stamp of ``x' = F x + G v``, from ``x = 0`` at the first stamp.
+              linear: np.ndarray, start: np.ndarray | None = None) -> np.ndarray:
+    """States at every stamp of ``x' = F x + G v``, from ``start`` (zero) at the first stamp.
 
     Parameters
     ----------
@@ -71,6 +71,8 @@ def propagate(F: np.ndarray, G: np.ndarray, times: np.ndarray, signal: np.ndarra
         ``c`` independent driving signals (the columns share ``F`` and ``G``).
     linear : ndarray of bool, shape (m, c)
         Which entries are linear between samples; the others are held.
+    start : ndarray, shape (n, c), optional
+        State of each column at the first stamp; zero by default.
 
     Returns
     -------
@@ -78,24 +80,26 @@ def propagate(F: np.ndarray, G: np.ndarray, times: np.ndarray, signal: np.ndarra
     """
     N, m, c = signal.shape
     n = F.shape[0]
+    first = np.zeros((n, c)) if start is None else np.asarray(start, dtype=float).reshape(n, c)
     out = np.zeros((N, n, c))
-    if N < 2 or n == 0:
+    if n == 0:
         return out
+    out[0] = first
+    if N < 2:
+        return out
+    # the start enters the sums as the drive of a step before the first stamp
     steps = np.diff(times)
     slope = np.where(linear, np.diff(signal, axis=0), 0.0)                       # (K, m, c)
     if is_regular(steps):
         Phi, gamma0, gamma1 = (part[0] for part in interval_maps(F, G, np.array([np.median(steps)])))
         drive = np.einsum("nm,kmc->nkc", gamma0, signal[:-1]) + np.einsum("nm,kmc->nkc", gamma1, slope)
-        out[1:] = _sum_constant(Phi, drive).transpose(1, 0, 2)
-        return out
+        return _sum_constant(Phi, np.concatenate([first[:, None], drive], axis=1)).transpose(1, 0, 2)
     values, vectors = np.linalg.eig(F)
     if np.linalg.cond(vectors) <= MODAL_CONDITION:
-        out[1:] = _modal(values, vectors, G, steps, signal[:-1], slope)
-        return out
+        return _modal(values, vectors, G, steps, signal[:-1], slope, first)
     Phi, gamma0, gamma1 = interval_maps(F, G, steps)
     drive = gamma0 @ signal[:-1] + gamma1 @ slope                                 # (K, n, c)
-    out[1:] = _sum_varying(Phi, drive)
-    return out
+    return _sum_varying(np.concatenate([np.zeros((1, n, n)), Phi]), np.concatenate([first[None], drive]))
 
 
 def _sum_constant(Phi: np.ndarray, drive: np.ndarray) -> np.ndarray:
@@ -113,7 +117,7 @@ def _sum_constant(Phi: np.ndarray, drive: np.ndarray) -> np.ndarray:
 
 
 def _sum_varying(Phi: np.ndarray, drive: np.ndarray) -> np.ndarray:
-    """``x_{k+1} = Phi_k x_k + drive_k`` from ``x_0 = 0``: (K, n, n), (K, n, c) -> (K, n, c)."""
+    """``x_k = Phi_k x_(k-1) + drive_k``, ``x_(-1) = 0``: (K, n, n), (K, n, c) -> (K, n, c)."""
     K = drive.shape[0]
     total, carry, span = drive.copy(), Phi.copy(), 1
     while span < K:
@@ -133,15 +137,17 @@ def _phi_functions(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _modal(values: np.ndarray, vectors: np.ndarray, G: np.ndarray, steps: np.ndarray,
-           held: np.ndarray, slope: np.ndarray) -> np.ndarray:
+           held: np.ndarray, slope: np.ndarray, first: np.ndarray) -> np.ndarray:
     """The varying recursion in ``F``'s eigenvector coordinates: each mode a scalar one."""
     x = values[:, None] * steps[None, :]                                            # (n, K)
     phi1, phi2 = _phi_functions(x)
     inputs = np.linalg.solve(vectors, G.astype(complex))                            # (n, m)
     drive = (steps * phi1)[:, :, None] * np.einsum("nm,kmc->nkc", inputs, held) \
         + (steps * phi2)[:, :, None] * np.einsum("nm,kmc->nkc", inputs, slope)      # (n, K, c)
-    total, carry, span = drive, np.exp(x), 1
-    K = steps.size
+    initial = np.linalg.solve(vectors, first.astype(complex))[:, None]              # (n, 1, c)
+    total = np.concatenate([initial, drive], axis=1)
+    carry = np.concatenate([np.zeros((values.size, 1), complex), np.exp(x)], axis=1)
+    span, K = 1, total.shape[1]
     while span < K:
         total[:, span:] += carry[:, span:, None] * total[:, :-span]
         carry[:, span:] = carry[:, span:] * carry[:, :-span]

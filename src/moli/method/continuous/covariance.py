@@ -20,7 +20,7 @@ from ..covariance import long_run_covariance
 from ..estimation import _observer_form
 from ..regression import _quotient_map
 from ..structure import Indices
-from .estimation import StampedRecord, observer_rows
+from .estimation import StampedRecord, model_part, observer_rows
 from .filters import unit_divisors
 
 __all__ = ["covariance_factor"]
@@ -45,14 +45,15 @@ def covariance_factor(record: StampedRecord, eta: np.ndarray, indices: Indices, 
     """``F`` with ``cov(vec[A, B, C, D]) = F F'`` for the model fitted with filter ``eta``."""
     wc, zeta = float(eta[0]), float(eta[1])
     alpha, *divisors = unit_divisors(zeta, indices, s)
-    p, m = len(indices), record.m
-    segments = observer_rows(record, wc, alpha, linear_inputs, skip=alpha.size - 1)
+    p, m, nbar = len(indices), record.m, alpha.size - 1
+    channels = p + m + len(record.times)
+    segments = observer_rows(record, wc, alpha, linear_inputs, skip=nbar)
     rows = np.concatenate(segments)
     breaks = np.cumsum([len(part) for part in segments])[:-1]
     scores, factors = [], []
     for j, (alpha_j, theta) in enumerate(zip(divisors, thetas)):
-        regressors = rows @ regressor_map(_quotient_map(alpha, alpha_j), p + m, p, j)
-        residual = rows[:, (p + m) * (alpha.size - 1) + j] - regressors @ theta
+        regressors = rows @ regressor_map(_quotient_map(alpha, alpha_j), channels, p, j)
+        residual = rows[:, channels * nbar + j] - regressors @ theta
         scores.append(regressors * residual[:, None])
         factors.append(scipy.linalg.qr(regressors, mode="r", check_finite=False)[0][: regressors.shape[1]])
     meat, _ = long_run_covariance(np.concatenate(scores, axis=1), tuple(breaks))
@@ -64,7 +65,11 @@ def covariance_factor(record: StampedRecord, eta: np.ndarray, indices: Indices, 
         scipy.linalg.solve_triangular(r, scipy.linalg.solve_triangular(r, part, trans="T"))
         for r, part in zip(factors, parts)
     ])
-    return _jacobian(thetas, divisors, indices, m, wc) @ spread
+    # the transients' parameters are nuisances: only the model's rows go on
+    kept = np.concatenate([offset + model_part(np.arange(theta.size), l, p, m, channels)
+                           for offset, theta, l in zip(np.cumsum([0] + [t.size for t in thetas]), thetas, indices)])
+    model_thetas = [model_part(theta, l, p, m, channels) for theta, l in zip(thetas, indices)]
+    return _jacobian(model_thetas, divisors, indices, m, wc) @ spread[kept]
 
 
 def _jacobian(thetas: list[np.ndarray], divisors: list[np.ndarray], indices: Indices, m: int,

@@ -28,7 +28,8 @@ from ..structure import Indices
 from .filters import unit_divisors
 from ...models.propagation import propagate
 
-__all__ = ["StampedRecord", "stamped_record", "filter_factor", "fit_list", "simulate_stamped"]
+__all__ = ["StampedRecord", "stamped_record", "observer_rows", "filter_factor", "fit_list", "model_part",
+           "simulate_stamped"]
 
 # A step longer than this many median steps starts a new segment (samples missing):
 # the input over it is unknown, so no inter-sample assumption bridges it.
@@ -109,16 +110,25 @@ def _companion(alpha: np.ndarray) -> np.ndarray:
 
 def observer_rows(record: StampedRecord, wc: float, alpha: np.ndarray, linear_inputs: bool,
                   skip: int) -> list[np.ndarray]:
-    """Per segment, the rows ``[xi, y]`` (``xi`` column ``r nbar + t``), the first ``skip`` dropped."""
+    """Per segment, the rows ``[xi, y]``, the first ``skip`` dropped.
+
+    ``xi`` has ``nbar`` columns (``r nbar + t``) for each of the ``p + m`` channels, then
+    for each segment the channel of an impulse at its first stamp, zero in the other
+    segments: its filtered values ``exp(F tau) e_nbar`` span every transient of the
+    observer's unknown initial state there (docs/continuous.md §4).
+    """
     nbar = alpha.size - 1
     F = _companion(alpha)
     G = np.eye(nbar)[:, -1:]
-    p, m = record.p, record.m
+    p, m, S = record.p, record.m, len(record.times)
     linear = np.array([[True] * p + [linear_inputs] * m])
     rows = []
-    for t, y, u in zip(record.times, record.y, record.u):
+    for k, (t, y, u) in enumerate(zip(record.times, record.y, record.u)):
         z = np.concatenate([y, u], axis=1)
-        xi = propagate(F, G, wc * (t - t[0]), z[:, None, :], linear)              # (N, nbar, c)
+        xi = np.zeros((t.size, nbar, p + m + S))
+        xi[:, :, : p + m] = propagate(F, G, wc * (t - t[0]), z[:, None, :], linear)
+        xi[:, :, p + m + k] = propagate(F, G, wc * (t - t[0]), np.zeros((t.size, 1, 1)),
+                                        np.zeros((1, 1), bool), start=G)[:, :, 0]
         rows.append(np.concatenate([xi.transpose(0, 2, 1).reshape(t.size, -1), y], axis=1)[skip:])
     return rows
 
@@ -131,14 +141,19 @@ def filter_factor(record: StampedRecord, wc: float, alpha: np.ndarray, linear_in
 
 
 def output_problems(factor: np.ndarray, alpha: np.ndarray, divisors: list[np.ndarray],
-                    p: int, m: int) -> list[tuple[np.ndarray, np.ndarray]]:
+                    p: int, channels: int) -> list[tuple[np.ndarray, np.ndarray]]:
     """Each output's least-squares problem ``(matrix, target)`` reduced by ``factor``."""
     problems = []
     for j, alpha_j in enumerate(divisors):
         quotient = _quotient_map(alpha, alpha_j)
-        matrix, target = _small_problems(factor[None], quotient[None], p + m, p, j, 0)
+        matrix, target = _small_problems(factor[None], quotient[None], channels, p, j, 0)
         problems.append((matrix[0], target[0]))
     return problems
+
+
+def model_part(theta: np.ndarray, l: int, p: int, m: int, channels: int) -> np.ndarray:
+    """Output parameters without the transients': ``(p + m) l`` filter weights, then the ``y_<j`` ones."""
+    return np.concatenate([theta[: (p + m) * l], theta[channels * l :]])
 
 
 def solve_scaled(matrix: np.ndarray, target: np.ndarray) -> np.ndarray:
@@ -151,20 +166,34 @@ def solve_scaled(matrix: np.ndarray, target: np.ndarray) -> np.ndarray:
 
 def fit_list(factor: np.ndarray, wc: float, zeta: float, indices: Indices, s: float, m: int
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[np.ndarray]]:
-    """``A, B, C`` (per time unit) of the list fitted with the filter ``(wc, zeta)``, and its thetas."""
+    """``A, B, C`` (per time unit) of the list fitted with the filter ``(wc, zeta)``, and its thetas
+    (each output's parameters, the transients' included)."""
     alpha, *divisors = unit_divisors(zeta, indices, s)
-    p = len(indices)
-    thetas = [solve_scaled(*problem) for problem in output_problems(factor, alpha, divisors, p, m)]
-    A, B, C, _ = _observer_form([t[None] for t in thetas], [divisors], indices, m)
+    p, nbar = len(indices), alpha.size - 1
+    channels = (factor.shape[1] - p) // nbar
+    thetas = [solve_scaled(*problem) for problem in output_problems(factor, alpha, divisors, p, channels)]
+    parts = [model_part(theta, l, p, m, channels)[None] for theta, l in zip(thetas, indices)]
+    A, B, C, _ = _observer_form(parts, [divisors], indices, m)
     return wc * A[0], wc * B[0], C[0], thetas
 
 
 def simulate_stamped(A: np.ndarray, B: np.ndarray, C: np.ndarray, record: StampedRecord,
                      linear_inputs: bool) -> list[np.ndarray]:
-    """Each segment's simulated outputs from the zero state."""
+    """Each segment's simulated outputs, from the initial state that fits it best.
+
+    A record cut at gaps starts its segments mid-motion, so each segment's initial
+    state is the least-squares fit of the free responses ``C exp(A t) e_i`` to what
+    the forced response leaves (docs/continuous.md §5).
+    """
+    n = A.shape[0]
     linear = np.full((record.m, 1), linear_inputs)
     out = []
-    for t, u in zip(record.times, record.u):
-        states = propagate(A, B, t - t[0], u[:, :, None], linear)[:, :, 0]
-        out.append(states @ C.T)
+    for t, y, u in zip(record.times, record.y, record.u):
+        forced = propagate(A, B, t - t[0], u[:, :, None], linear)[:, :, 0] @ C.T
+        free = C @ propagate(A, np.zeros((n, 1)), t - t[0], np.zeros((t.size, 1, n)),
+                             np.zeros((1, n), bool), start=np.eye(n))                  # (N, p, n)
+        if np.all(np.isfinite(free)) and np.all(np.isfinite(forced)):
+            x0 = np.linalg.lstsq(free.reshape(-1, n), (y - forced).ravel(), rcond=None)[0]
+            forced = forced + free @ x0
+        out.append(forced)
     return out
