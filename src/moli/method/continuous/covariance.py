@@ -46,7 +46,7 @@ def covariance_factor(record: StampedRecord, eta: np.ndarray, indices: Indices, 
     wc, zeta = float(eta[0]), float(eta[1])
     alpha, *divisors = unit_divisors(zeta, indices, s)
     p, m, nbar = len(indices), record.m, alpha.size - 1
-    channels = p + m + len(record.times)
+    channels = p + m + 1 + len(record.times)
     segments = observer_rows(record, wc, alpha, linear_inputs, skip=nbar)
     rows = np.concatenate(segments)
     breaks = np.cumsum([len(part) for part in segments])[:-1]

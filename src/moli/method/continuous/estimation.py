@@ -112,22 +112,24 @@ def observer_rows(record: StampedRecord, wc: float, alpha: np.ndarray, linear_in
                   skip: int) -> list[np.ndarray]:
     """Per segment, the rows ``[xi, y]``, the first ``skip`` dropped.
 
-    ``xi`` has ``nbar`` columns (``r nbar + t``) for each of the ``p + m`` channels, then
-    for each segment the channel of an impulse at its first stamp, zero in the other
-    segments: its filtered values ``exp(F tau) e_nbar`` span every transient of the
-    observer's unknown initial state there (docs/continuous.md §4).
+    ``xi`` has ``nbar`` columns (``r nbar + t``) for each of the ``p + m`` channels; then
+    for a constant channel (1 throughout), whose filtered values take up the offset of
+    records centred on means that are not an equilibrium; then for each segment the
+    channel of an impulse at its first stamp, zero in the other segments: its filtered
+    values ``exp(F tau) e_nbar`` span every transient of the observer's unknown
+    initial state there (docs/continuous.md §4).
     """
     nbar = alpha.size - 1
     F = _companion(alpha)
     G = np.eye(nbar)[:, -1:]
     p, m, S = record.p, record.m, len(record.times)
-    linear = np.array([[True] * p + [linear_inputs] * m])
+    linear = np.array([[True] * p + [linear_inputs] * m + [False]])
     rows = []
     for k, (t, y, u) in enumerate(zip(record.times, record.y, record.u)):
-        z = np.concatenate([y, u], axis=1)
-        xi = np.zeros((t.size, nbar, p + m + S))
-        xi[:, :, : p + m] = propagate(F, G, wc * (t - t[0]), z[:, None, :], linear)
-        xi[:, :, p + m + k] = propagate(F, G, wc * (t - t[0]), np.zeros((t.size, 1, 1)),
+        z = np.concatenate([y, u, np.ones((t.size, 1))], axis=1)
+        xi = np.zeros((t.size, nbar, p + m + 1 + S))
+        xi[:, :, : p + m + 1] = propagate(F, G, wc * (t - t[0]), z[:, None, :], linear)
+        xi[:, :, p + m + 1 + k] = propagate(F, G, wc * (t - t[0]), np.zeros((t.size, 1, 1)),
                                         np.zeros((1, 1), bool), start=G)[:, :, 0]
         rows.append(np.concatenate([xi.transpose(0, 2, 1).reshape(t.size, -1), y], axis=1)[skip:])
     return rows
@@ -182,8 +184,8 @@ def simulate_stamped(A: np.ndarray, B: np.ndarray, C: np.ndarray, record: Stampe
     """Each segment's simulated outputs, from the initial state that fits it best.
 
     A record cut at gaps starts its segments mid-motion, so each segment's initial
-    state is the least-squares fit of the free responses ``C exp(A t) e_i`` to what
-    the forced response leaves (docs/continuous.md §5).
+    state is the least-squares fit of the free responses ``C exp(A t) e_i`` (beside a
+    constant per output) to what the forced response leaves (docs/continuous.md §5).
     """
     n = A.shape[0]
     linear = np.full((record.m, 1), linear_inputs)
@@ -193,7 +195,9 @@ def simulate_stamped(A: np.ndarray, B: np.ndarray, C: np.ndarray, record: Stampe
         free = C @ propagate(A, np.zeros((n, 1)), t - t[0], np.zeros((t.size, 1, n)),
                              np.zeros((1, n), bool), start=np.eye(n))                  # (N, p, n)
         if np.all(np.isfinite(free)) and np.all(np.isfinite(forced)):
-            x0 = np.linalg.lstsq(free.reshape(-1, n), (y - forced).ravel(), rcond=None)[0]
-            forced = forced + free @ x0
+            # with an offset per output: the record's means need not be an equilibrium
+            basis = np.concatenate([free, np.broadcast_to(np.eye(y.shape[1]), (t.size,) + (y.shape[1],) * 2)], axis=2)
+            fitted = np.linalg.lstsq(basis.reshape(-1, basis.shape[2]), (y - forced).ravel(), rcond=None)[0]
+            forced = forced + free @ fitted[:n]
         out.append(forced)
     return out

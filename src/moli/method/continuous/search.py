@@ -103,7 +103,7 @@ class ContinuousSearch:
     def feasible(self, indices: Indices) -> bool:
         """Whether the estimation rows determine every output's parameters."""
         p, m, S = self.estimation.p, self.estimation.m, len(self.estimation.times)
-        needed = max((p + m + S) * l + j for j, l in enumerate(indices)) + 1
+        needed = max((p + m + 1 + S) * l + j for j, l in enumerate(indices)) + 1
         return self.estimation.rows(max(indices)) >= needed
 
     def factor(self, wc: float, zeta: float, indices: Indices) -> np.ndarray:
