@@ -38,6 +38,7 @@ from .fleet_cli import fleet_commands
 from .fleet_report import SCORES
 from .outputs import REPORT_FILE, refuse_overwrite, run_folder
 from .reading import RunWarnings, names, read_records, reading_options
+from .continuous_fit import fit_continuous
 from .report import write_report
 
 __all__ = ["cli", "main", "describe", "options_from_flags"]
@@ -259,13 +260,18 @@ def demo(out_dir: Path, nmax: int, all_lists: bool, force: bool) -> None:
                    "else none].")
 @click.option("--all-lists", is_flag=True,
               help=f"Also fit every list of orders with at most {MAX_LISTS_PER_ORDER} lists (report).")
+@click.option("--continuous", is_flag=True,
+              help="Identify dx/dt = A x + B u directly from the time stamps, regular or not "
+                   "(docs/continuous.md).")
+@click.option("--input-hold", type=click.Choice(["zoh", "foh"]),
+              help="With --continuous: the inputs between samples, held (zoh) or linear (foh) [default: zoh].")
 @_FORCE
 @reading_options
 def fit(data_files: tuple[Path, ...], inputs: str | None, outputs: str | None, daisy: str | None,
         data_dir: Path | None, ts: float | None, options_file: Path | None, nmax: int | None,
         order: int | None, fraction: float, seed: int | None, preset: str | None, x0: str | None,
-        outliers: str, model_path: Path | None, report_dir: Path | None, all_lists: bool, force: bool,
-        **reading: Any) -> None:
+        outliers: str, model_path: Path | None, report_dir: Path | None, all_lists: bool,
+        continuous: bool, input_hold: str | None, force: bool, **reading: Any) -> None:
     """Identify a model from a data file, several runs of one plant, or a DaISy set.
 
     DATA is a text table (.csv .tsv .txt), an Excel workbook (.xlsx), Parquet, .npz or
@@ -277,7 +283,8 @@ def fit(data_files: tuple[Path, ...], inputs: str | None, outputs: str | None, d
     """
     if bool(data_files) == (daisy is not None):
         raise DataError("give either DATA files or --daisy NAME")
-    options = options_from_flags(options_file, preset, nmax=nmax, order=order, seed=seed, x0=x0)
+    options = options_from_flags(options_file, preset, nmax=nmax, order=order, seed=seed, x0=x0,
+                                 time="continuous" if continuous else None, input_hold=input_hold)
     stems = [daisy] if daisy is not None else [path.stem for path in data_files]
     read = [*data_files, *([options_file] if options_file is not None else [])]
     model_path, report_dir = _outputs(model_path, report_dir, run_folder("fit", stems), force, read)
@@ -293,6 +300,10 @@ def fit(data_files: tuple[Path, ...], inputs: str | None, outputs: str | None, d
     if removed:
         data = remove_outliers(data)
         click.echo(f"outliers replaced by linear interpolation: {removed}")
+    if options.time == "continuous":
+        fit_continuous(data, fraction, options, noted, model_path, report_dir,
+                       data_files[0] if len(data_files) == 1 else None)
+        return
     result = _identify(data, fraction, options, noted, str(data_files[-1]) if len(data_files) > 1 else None)
     result.model.info["data"].update(source=source, file_sha256=[file_sha256(f) for f in data_files]
                                      if len(data_files) > 1 else file_sha256(data_files[0]),

@@ -42,7 +42,7 @@ ENVELOPE_BINS = 1000
 DETAIL_SAMPLES = 500
 
 
-def _figure(width: float, height: float) -> Figure:
+def new_figure(width: float, height: float) -> Figure:
     fig = Figure(figsize=(width, height), layout="constrained")
     FigureCanvasAgg(fig)
     return fig
@@ -59,9 +59,9 @@ def save_figure(fig: Figure, path: Path) -> bytes:
     return buffer.getvalue()
 
 
-def _channel_grid(model: StateSpaceModel, ylabel: str, xlabel: str) -> tuple[Figure, np.ndarray]:
+def channel_grid(model: StateSpaceModel, ylabel: str, xlabel: str) -> tuple[Figure, np.ndarray]:
     """A p-by-m grid of axes, one per channel: inputs in the column titles, outputs on the rows."""
-    fig = _figure(2.4 * model.m + 0.6, PANEL_HEIGHT * model.p + 0.4)
+    fig = new_figure(2.4 * model.m + 0.6, PANEL_HEIGHT * model.p + 0.4)
     axes = fig.subplots(model.p, model.m, sharex=True, squeeze=False)
     for j, name in enumerate(model.input_names):
         axes[0, j].set_title(f"from {figure_label(name)}", fontsize=9)
@@ -139,7 +139,7 @@ def vaf_by_order(path: Sequence[PathStep], tried: Sequence[PathStep] = (), selec
     -------
     matplotlib.figure.Figure
     """
-    fig = _figure(6.4, 3.6)
+    fig = new_figure(6.4, 3.6)
     ax = fig.add_subplot()
     if tried:
         ax.plot([st.order for st in tried], [st.mean_vaf for st in tried], "o", color="0.65",
@@ -185,7 +185,7 @@ def measured_vs_simulated(data: IOData, comparison: Comparison) -> Figure:
     matplotlib.figure.Figure
     """
     long = data.N > MAX_DRAWN_SAMPLES
-    fig = _figure(10.0 if long else 7.5, PANEL_HEIGHT * data.p + 0.4)
+    fig = new_figure(10.0 if long else 7.5, PANEL_HEIGHT * data.p + 0.4)
     grid = fig.subplots(data.p, 2 if long else 1, sharex="col", squeeze=False,
                         width_ratios=[3, 1] if long else None)
     axes = grid[:, 0]
@@ -224,7 +224,7 @@ def poles(model: StateSpaceModel) -> Figure:
     -------
     matplotlib.figure.Figure
     """
-    fig = _figure(4.2, 4.2)
+    fig = new_figure(4.2, 4.2)
     ax = fig.add_subplot()
     angle = np.linspace(0.0, 2.0 * np.pi, 400)
     ax.plot(np.cos(angle), np.sin(angle), color="0.5", linewidth=1.0)
@@ -263,7 +263,7 @@ def step_responses(model: StateSpaceModel, samples: int) -> Figure:
     -------
     matplotlib.figure.Figure
     """
-    fig, axes = _channel_grid(model, "to", "time")
+    fig, axes = channel_grid(model, "to", "time")
     t = np.arange(samples) * model.Ts
     bands = None if model.cov_factor is None else model.step_bands(samples, BAND_CONFIDENCE)
     for j in range(model.m):
@@ -310,7 +310,7 @@ def bode_magnitude(model: StateSpaceModel, data: IOData | None = None, nperseg: 
     gain = np.abs(model.frequency_response(omega))
     bands = None if model.cov_factor is None else model.magnitude_bands(omega, BAND_CONFIDENCE)
     empirical = None if data is None else empirical_frequency_response(data, nperseg=nperseg)
-    fig, axes = _channel_grid(model, "|H| to", "frequency (rad per time unit)")
+    fig, axes = channel_grid(model, "|H| to", "frequency (rad per time unit)")
     for i in range(model.p):
         for j in range(model.m):
             ax = axes[i, j]
@@ -352,7 +352,7 @@ def singular_values(model: StateSpaceModel, data: IOData | None = None, nperseg:
     nyquist = np.pi / model.Ts
     omega = np.logspace(np.log10(nyquist) - DECADES, np.log10(nyquist), points)
     sv = np.linalg.svd(model.frequency_response(omega), compute_uv=False)       # (F, min(p, m))
-    fig = _figure(5.5, 3.4)
+    fig = new_figure(5.5, 3.4)
     ax = fig.subplots()
     ax.loglog(omega, sv, color="C0", linewidth=1.2)
     ax.lines[0].set_label("model")

@@ -42,12 +42,12 @@ img { max-width: 100%; }
 """
 
 
-def _image(png: bytes, alt: str) -> str:
+def embedded_image(png: bytes, alt: str) -> str:
     encoded = base64.b64encode(png).decode("ascii")
     return f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{encoded}">'
 
 
-def _facts(rows: Mapping[str, str]) -> str:
+def facts_table(rows: Mapping[str, str]) -> str:
     """A two-column table of labels and values."""
     return "<table>" + "".join(
         f'<tr><th scope="row">{html.escape(k)}</th><td class="text">{html.escape(v)}</td></tr>'
@@ -100,7 +100,7 @@ def _model_facts(result: IdentificationResult) -> str:
         "selected by": f"{result.selection}, on {result.validation.N} validation samples "
                        f"({result.validation_source})",
     }
-    return _facts(facts)
+    return facts_table(facts)
 
 
 def _provenance(result: IdentificationResult, data_file: str | Path | None) -> str:
@@ -113,7 +113,7 @@ def _provenance(result: IdentificationResult, data_file: str | Path | None) -> s
         rows["SHA-256 of the estimation samples"] = recorded["sha256"]
     rows["moli version"] = __version__
     rows["written (UTC)"] = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M:%S")
-    return _facts(rows)
+    return facts_table(rows)
 
 
 def warnings_section(messages: Sequence[str]) -> str:
@@ -155,7 +155,7 @@ a constant offset in the error; fit counts it. Scores are percent, 100 is perfec
 def _options_table(result: IdentificationResult) -> str:
     options = {name: str(value) for name, value in result.options.to_dict().items()}
     options["nmax"] += f" (path ran to {result.nmax})" if result.options.nmax is None else ""
-    return _facts(options)
+    return facts_table(options)
 
 
 def validation_caption(result: IdentificationResult) -> str:
@@ -285,7 +285,7 @@ def write_report(
     figures_html = {}
     for name, (fig, caption) in drawn.items():
         png = figures.save_figure(fig, out / f"{name}.png")
-        figures_html[name] = (f"<figure>{_image(png, name)}<figcaption class='note'>{caption}"
+        figures_html[name] = (f"<figure>{embedded_image(png, name)}<figcaption class='note'>{caption}"
                               "</figcaption></figure>")
     residuals = "" if analysis is None else residual_section(analysis, figures_html.pop("residuals"))
     interrupted = (f"<p><b>Interrupted after the path: skipped {html.escape(', '.join(result.skipped))}; "

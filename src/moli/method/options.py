@@ -134,8 +134,10 @@ class IdentifyOptions:
     ----------
     nmax : int, optional
         Largest McMillan degree on the greedy path; None: ``max(10, p + 4)``.
-    order_rule : {"tolerance", "paired", "refined"}, default "tolerance"
-        How the order is picked on the validation record: the lowest order within
+    order_rule : {"tolerance", "paired", "refined"}, optional
+        How the order is picked on the validation record; None (the default) means
+        "tolerance" in discrete time and "paired" in continuous time (docs/continuous.md
+        §5 gives the measurements behind each): the lowest order within
         ``order_tolerance`` points of the best mean VAF; the lowest order whose
         validation error is within one paired standard error of the best model's
         (:func:`moli.method.order_rules.select_order_paired`); or the same test with each
@@ -237,7 +239,7 @@ class IdentifyOptions:
     """
 
     nmax: int | None = None
-    order_rule: str = "tolerance"
+    order_rule: str | None = None
     order: int | None = None
     order_tolerance: float = 0.0
     order_errors: float = 1.0
@@ -275,7 +277,7 @@ class IdentifyOptions:
             if isinstance(self.refine, bool) else self.refine
         checked = {
             "nmax": None if self.nmax is None else _integer("nmax", self.nmax, 1),
-            "order_rule": _choice("order_rule", self.order_rule, ORDER_RULES),
+            "order_rule": None if self.order_rule is None else _choice("order_rule", self.order_rule, ORDER_RULES),
             "order": None if self.order is None else _integer("order", self.order, 1),
             "order_errors": _number("order_errors", self.order_errors,
                                     "a number >= 0 (paired standard errors)", lambda z: z >= 0),

@@ -162,6 +162,27 @@ class ContinuousModel(Dimensions):
         except np.linalg.LinAlgError:
             raise DataError("the model has a pole at s = 0 (an integrator): its static gain is infinite") from None
 
+    def static_gain_interval(self, confidence: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
+        """Pointwise ``confidence`` interval of each static gain, first-order propagation of ``cov_factor``.
+
+        ``d(D - C A^-1 B) = dD - dC A^-1 B + C A^-1 dA A^-1 B - C A^-1 dB``.
+        """
+        if self.cov_factor is None:
+            raise DataError("this model carries no covariance (cov_factor is None): identify it with "
+                            "moli.identify(..., time='continuous') to get intervals")
+        from scipy.stats import norm  # slow to import: only when an interval is asked for
+
+        gain = self.static_gain()
+        n, m, p = self.n, self.m, self.p
+        ends = np.cumsum([n * n, n * m, p * n])
+        dA, dB, dC, dD = (part.T.reshape((-1,) + shape) for part, shape in zip(
+            np.split(self.cov_factor, ends, axis=0), ((n, n), (n, m), (p, n), (p, m))))
+        to_output = np.linalg.solve(self.A, self.B)                 # A^-1 B
+        from_state = np.linalg.solve(self.A.T, self.C.T).T          # C A^-1
+        change = dD - dC @ to_output + from_state @ dA @ to_output - from_state @ dB
+        spread = float(norm.ppf(0.5 + confidence / 2)) * np.sqrt(np.sum(change**2, axis=0))
+        return gain - spread, gain + spread
+
     def pole_table(self) -> list[str]:
         """Lines describing each pole: time constant, or natural frequency and damping; then the static gains."""
         lines = ["poles (rad per time unit):"]

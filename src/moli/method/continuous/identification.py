@@ -40,6 +40,8 @@ class ContinuousResult:
     options : IdentifyOptions
     validation_source : str
     seconds : float
+    estimation, validation : IOData
+        The records as the search used them (centred on the estimation means).
     """
 
     model: ContinuousModel
@@ -48,6 +50,8 @@ class ContinuousResult:
     options: IdentifyOptions = field(repr=False)
     validation_source: str
     seconds: float
+    estimation: IOData = field(repr=False)
+    validation: IOData = field(repr=False)
 
     @property
     def selected(self) -> ContinuousStep:
@@ -60,7 +64,7 @@ class ContinuousResult:
         opts = self.options
         if opts.order is not None:
             return f"fixed order {opts.order}"
-        if opts.order_rule == "paired":
+        if opts.order_rule in (None, "paired"):
             return f"paired rule: the lowest order within {opts.order_errors:g} standard errors of the best"
         return f"tolerance rule: the lowest order within {opts.order_tolerance:g} points of the best VAF"
 
@@ -129,7 +133,7 @@ def identify_continuous(estimation: IOData, validation: IOData, source: str, opt
             raise DataError(f"the path stopped at order {path[-1].order}, below the fixed order "
                             f"{opts.order}: the record is too short for it")
         chosen = at[0]
-    elif opts.order_rule == "paired":
+    elif opts.order_rule in (None, "paired"):
         chosen = select_by_shares(path, lambda i: path[i].errors, opts.order_errors)
     else:
         chosen = select_order(path, opts.order_tolerance)
@@ -140,4 +144,5 @@ def identify_continuous(estimation: IOData, validation: IOData, source: str, opt
             "may fit better; raise nmax to look", OrderBoundWarning, stacklevel=3)
     factor = covariance_factor(fitted, step.eta, step.indices, opts.s, step.thetas, opts.input_hold == "foh")
     model = replace(step.model, cov_factor=factor)
-    return ContinuousResult(model, path, chosen, opts, source, time.perf_counter() - start)
+    return ContinuousResult(model, path, chosen, opts, source, time.perf_counter() - start,
+                            estimation, validation)
