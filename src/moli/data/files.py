@@ -100,6 +100,8 @@ def read_data(
     Returns
     -------
     IOData
+        With the time column's stamps in ``times`` (seconds since the first sample for
+        date-times), or ``times=None`` without a time column.
 
     Raises
     ------

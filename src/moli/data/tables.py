@@ -316,6 +316,8 @@ def from_columns(
     Returns
     -------
     IOData
+        With the time column's stamps in ``times`` (seconds since the first sample for
+        date-times), or ``times=None`` without a time column.
 
     Warns
     -----
@@ -379,6 +381,8 @@ def from_dataframe(
     Returns
     -------
     IOData
+        With the time column's stamps in ``times`` (seconds since the first sample for
+        date-times), or ``times=None`` without a time column.
 
     Examples
     --------
