@@ -128,7 +128,9 @@ def test_the_repr_counts_irregular_steps_only():
     assert "times" not in repr(regular) and regular.Ts == 0.5
     times = 0.5 * np.arange(N)
     times[10:] += 0.2                                  # one step of 0.7: 40 % off
-    assert repr(stamped(times)).endswith(", times: 1 irregular steps)")
+    assert repr(stamped(times)).endswith(", times: 1 irregular step)")
+    times[20:] += 0.2
+    assert repr(stamped(times)).endswith(", times: 2 irregular steps)")
 
 
 def write_csv(path, stamps, u, y) -> None:

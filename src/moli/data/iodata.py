@@ -206,7 +206,7 @@ class IOData:
             f"IOData(N={self.N}, p={self.p}, m={self.m}, Ts={self.Ts:g}, "
             f"outputs={list(self.output_names)}, inputs={list(self.input_names)}"
             + (f", segments={self.n_segments}" if self.n_segments > 1 else "")
-            + (f", times: {irregular} irregular steps" if irregular else "") + ")"
+            + (f", times: {irregular} irregular step{'s' if irregular > 1 else ''}" if irregular else "") + ")"
         )
 
     def _with(

@@ -38,6 +38,14 @@ def _kind(values: object) -> str:
         return ""
 
 
+def _inside(N: int, starts: tuple[int, ...]) -> np.ndarray:
+    """Which of the N - 1 steps between samples lie inside a segment (a segment's stamps may
+    restart at its first sample)."""
+    inside = np.ones(max(N - 1, 0), bool)
+    inside[[s - 1 for s in starts if s > 0]] = False
+    return inside
+
+
 def check_times(times: object, N: int, starts: tuple[int, ...]) -> np.ndarray:
     """``times`` as a read-only float copy of shape (N,), strictly increasing in each segment.
 
@@ -55,9 +63,7 @@ def check_times(times: object, N: int, starts: tuple[int, ...]) -> np.ndarray:
     if bad.size:
         k = int(bad[0])
         raise DataError(f"times must be finite: sample {k} has time {stamps[k]:g}")
-    steps = np.diff(stamps)
-    steps[[s - 1 for s in starts if s > 0]] = np.inf    # a segment's stamps may restart
-    backwards = np.flatnonzero(~(steps > 0))
+    backwards = np.flatnonzero(_inside(N, starts) & ~(np.diff(stamps) > 0))
     if backwards.size:
         k = int(backwards[0]) + 1
         raise DataError(
@@ -71,9 +77,7 @@ def check_times(times: object, N: int, starts: tuple[int, ...]) -> np.ndarray:
 
 def _steps_inside(times: np.ndarray, starts: tuple[int, ...]) -> np.ndarray:
     """The steps between consecutive stamps of the same segment."""
-    inside = np.ones(max(times.size - 1, 0), bool)
-    inside[[s - 1 for s in starts if s > 0]] = False
-    return np.diff(times)[inside]
+    return np.diff(times)[_inside(times.size, starts)]
 
 
 def median_step(times: np.ndarray, starts: tuple[int, ...]) -> float:
