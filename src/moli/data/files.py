@@ -100,6 +100,8 @@ def read_data(
     Returns
     -------
     IOData
+        With the time column's stamps in ``times`` (seconds since the first sample for
+        date-times), or ``times=None`` without a time column.
 
     Raises
     ------
@@ -198,9 +200,11 @@ def to_dataframe(data: IOData) -> "pd.DataFrame":
     Returns
     -------
     pandas.DataFrame
-        Columns ``data.output_names + data.input_names``; index ``time`` (``k * Ts``).
-        A record of several segments gets a row of NaN between two segments, which
-        :func:`from_dataframe` and :func:`read_data` read back as the boundary.
+        Columns ``data.output_names + data.input_names``; index ``time``: ``data.time()``
+        (the record's time stamps, else ``k * Ts``). A record of several segments gets a
+        row of NaN between two segments, which :func:`from_dataframe` and
+        :func:`read_data` read back as the boundary, and its index counts ``k * Ts``
+        through those rows (stamps may restart at a segment).
 
     Examples
     --------

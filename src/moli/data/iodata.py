@@ -10,6 +10,7 @@ import numpy as np
 from ..errors import DataError
 from .arguments import name_list, period, real_array
 from .segments import check_starts, remove_missing_rows, segment_bounds, starts_after_cut, starts_in_slice
+from .stamps import UNSTATED_PERIOD, check_times, irregular_steps, joined_times, median_step
 
 __all__ = ["as_signal", "stack_signals", "IOData", "merge", "longest_segment", "require_one_segment"]
 
@@ -70,17 +71,27 @@ class IOData:
         Inputs, time along axis 0. A 1-D array is one input channel.
     Ts : float, default 1.0
         Sampling period (any time unit; filter frequencies are in rad per that unit).
+        With ``times`` and no ``Ts``: the median step between the stamps of the same
+        segment.
     output_names, input_names : sequence of str, optional
         Channel names; default ``y1, y2, ...`` and ``u1, u2, ...``.
     segment_starts : sequence of int, optional
         First sample of each segment when the arrays hold several experiments (or the
         stretches between gaps) end to end: increasing, the first 0. Default: one
         segment.
+    times : array_like, shape (N,), optional
+        Time stamp of each sample in the unit of ``Ts``, kept as given (jitter and
+        gaps included, never resampled): finite and strictly increasing within each
+        segment; they may restart at a segment's first sample. Default: none, the
+        samples are ``Ts`` apart.
 
     Notes
     -----
     The arrays are copied: later changes to the caller's arrays do not reach the
     container, and nothing moli does modifies the caller's arrays.
+
+    Every record made from this one (slices, ``split``, ``drop``, ``segments``,
+    ``remove_means``, :func:`merge`) keeps the stamps of the samples it holds.
 
     A NaN marks a missing sample: every sample with a NaN in any channel is removed,
     and the samples after it start a new segment. The identification restarts its
@@ -101,11 +112,12 @@ class IOData:
         self,
         y: object,
         u: object,
-        Ts: float = 1.0,
+        Ts: float = UNSTATED_PERIOD,
         output_names: Sequence[str] | None = None,
         input_names: Sequence[str] | None = None,
         *,
         segment_starts: Sequence[int] | None = None,
+        times: object = None,
     ) -> None:
         y_arr = as_signal("y", y, missing=True)
         u_arr = as_signal("u", u, missing=True)
@@ -117,13 +129,17 @@ class IOData:
             )
         if y_arr.shape[0] == 0:
             raise DataError("y and u hold no samples: a record needs at least one (shape (N, channels), N >= 1)")
+        stated = Ts is not UNSTATED_PERIOD
         Ts = period(Ts)
         starts = (0,) if segment_starts is None else check_starts(segment_starts, y_arr.shape[0])
-        y_arr, u_arr, self._starts = remove_missing_rows(y_arr, u_arr, starts)
-        self._y = y_arr
-        self._u = u_arr
-        self._y.flags.writeable = False
-        self._u.flags.writeable = False
+        stamps = None if times is None else check_times(times, y_arr.shape[0], starts)
+        if stamps is not None and not stated:
+            Ts = median_step(stamps, starts)
+        y_arr, u_arr, stamps, self._starts = remove_missing_rows(y_arr, u_arr, starts, stamps)
+        for array in (y_arr, u_arr, stamps):
+            if array is not None:
+                array.flags.writeable = False
+        self._y, self._u, self._times = y_arr, u_arr, stamps
         self.Ts = float(Ts)
         self.output_names = _names(output_names, y_arr.shape[1], "y", "output_names")
         self.input_names = _names(input_names, u_arr.shape[1], "u", "input_names")
@@ -139,6 +155,12 @@ class IOData:
     def u(self) -> np.ndarray:
         """Inputs, shape (N, m) (read-only view)."""
         return self._u
+
+    @property
+    def times(self) -> np.ndarray | None:
+        """Time stamp of each sample as given, shape (N,) (read-only view); None when the
+        record has none and its samples are ``Ts`` apart."""
+        return self._times
 
     @property
     def N(self) -> int:
@@ -179,18 +201,23 @@ class IOData:
         return self.N
 
     def __repr__(self) -> str:
+        irregular = 0 if self._times is None else irregular_steps(self._times, self._starts, self.Ts)
         return (
             f"IOData(N={self.N}, p={self.p}, m={self.m}, Ts={self.Ts:g}, "
             f"outputs={list(self.output_names)}, inputs={list(self.input_names)}"
-            + (f", segments={self.n_segments}" if self.n_segments > 1 else "") + ")"
+            + (f", segments={self.n_segments}" if self.n_segments > 1 else "")
+            + (f", times: {irregular} irregular step{'s' if irregular > 1 else ''}" if irregular else "") + ")"
         )
 
     def _with(
         self, y: np.ndarray, u: np.ndarray, y_offset: np.ndarray, u_offset: np.ndarray,
-        starts: tuple[int, ...] | None = None,
+        starts: tuple[int, ...] | None = None, rows: slice | np.ndarray | None = None,
     ) -> "IOData":
+        """A record of these samples with this one's period and names; ``rows`` picks
+        this record's stamps of them (all when None)."""
+        stamps = None if self._times is None else self._times if rows is None else self._times[rows]
         new = IOData(y, u, self.Ts, self.output_names, self.input_names,
-                     segment_starts=self._starts if starts is None else starts)
+                     segment_starts=self._starts if starts is None else starts, times=stamps)
         new.y_offset = np.array(y_offset, dtype=float)
         new.u_offset = np.array(u_offset, dtype=float)
         return new
@@ -201,11 +228,13 @@ class IOData:
             raise DataError("IOData is indexed by a slice of samples, e.g. data[0:500]")
         if self.n_segments > 1 and index.step not in (None, 1):
             raise DataError(f"a record of {self.n_segments} segments is sliced with step 1 only, got {index}")
+        if self._times is not None and (index.step or 1) < 0:
+            raise DataError(f"a record with time stamps is sliced forwards only (a positive step), got {index}")
         y, u = self._y[index], self._u[index]
         if y.shape[0] == 0:
             raise DataError(f"slice {index} selects no samples of {self.N}")
         starts = starts_in_slice(self._starts, self.N, index) if self.n_segments > 1 else (0,)
-        return self._with(y, u, self.y_offset, self.u_offset, starts)
+        return self._with(y, u, self.y_offset, self.u_offset, starts, index)
 
     def drop(self, start: int, stop: int) -> "IOData":
         """The record without samples ``start..stop-1``: the two sides become separate segments.
@@ -228,7 +257,7 @@ class IOData:
                             f"left, got start={start}, stop={stop}")
         kept = np.r_[0:start, stop : self.N]
         return self._with(self._y[kept], self._u[kept], self.y_offset, self.u_offset,
-                          starts_after_cut(self._starts, self.N, int(start), int(stop)))
+                          starts_after_cut(self._starts, self.N, int(start), int(stop)), kept)
 
     def split(self, at: int | float) -> tuple["IOData", "IOData"]:
         """Split into a head and a tail.
@@ -258,8 +287,9 @@ class IOData:
         return self[:at], self[at:]
 
     def time(self) -> np.ndarray:
-        """Sample times ``k * Ts``, shape (N,), counted through the segments end to end."""
-        return np.arange(self.N) * self.Ts
+        """Sample times, shape (N,): the stamps when the record has them, else ``k * Ts``
+        counted through the segments end to end (a new array either way)."""
+        return np.arange(self.N) * self.Ts if self._times is None else self._times.copy()
 
     def remove_means(self, y_offset: np.ndarray | None = None, u_offset: np.ndarray | None = None) -> "IOData":
         """Subtract offsets (by default this record's means) and remember them.
@@ -291,19 +321,22 @@ def merge(records: Sequence[IOData]) -> IOData:
     ----------
     records : sequence of IOData
         Experiments on the same plant: the same output and input names (so the same
-        channel counts), sampling period (relative tolerance 1e-6) and offsets.
+        channel counts), sampling period (relative tolerance 1e-6) and offsets; time
+        stamps on every record or on none.
 
     Returns
     -------
     IOData
-        Its ``Ts`` and offsets are the first record's.
+        Its ``Ts`` and offsets are the first record's; its stamps, if any, each
+        record's own, in order.
 
     Raises
     ------
     DataError
         No records, something that is not an :class:`IOData`, or a record whose
-        channels, sampling period or offsets differ from the first one's (named by
-        its position).
+        channels, sampling period or offsets differ from the first one's, or that has
+        time stamps where the first has none or the other way round (named by its
+        position).
 
     Examples
     --------
@@ -335,8 +368,9 @@ def merge(records: Sequence[IOData]) -> IOData:
     for record in records:
         starts.extend(total + s for s, _ in record.bounds)
         total += record.N
+    stamps = joined_times([r.times for r in records])
     merged = IOData(np.concatenate([r.y for r in records]), np.concatenate([r.u for r in records]), first.Ts,
-                    first.output_names, first.input_names, segment_starts=starts)
+                    first.output_names, first.input_names, segment_starts=starts, times=stamps)
     merged.y_offset, merged.u_offset = first.y_offset.copy(), first.u_offset.copy()
     return merged
 

@@ -143,7 +143,8 @@ def remove_outliers(data: IOData, threshold: float = OUTLIER_THRESHOLD) -> IODat
 
     Each outlier sample takes the value on the straight line between the nearest clean
     samples of its channel before and after it (the nearest clean sample at either end
-    of the record). Clean samples, ``Ts``, names and offsets are unchanged.
+    of the record). Clean samples, ``Ts``, names, offsets, segments and time stamps are
+    unchanged.
 
     Parameters
     ----------
@@ -168,6 +169,7 @@ def remove_outliers(data: IOData, threshold: float = OUTLIER_THRESHOLD) -> IODat
     for j in np.flatnonzero(mask.any(axis=0)):
         clean = ~mask[:, j] & np.isfinite(columns[:, j])
         columns[mask[:, j], j] = np.interp(k[mask[:, j]], k[clean], columns[clean, j])
-    cleaned = IOData(columns[:, : data.p], columns[:, data.p:], data.Ts, data.output_names, data.input_names)
+    cleaned = IOData(columns[:, : data.p], columns[:, data.p:], data.Ts, data.output_names, data.input_names,
+                     segment_starts=data.segment_starts, times=data.times)
     cleaned.y_offset, cleaned.u_offset = data.y_offset.copy(), data.u_offset.copy()
     return cleaned

@@ -36,16 +36,17 @@ def check_starts(starts: object, N: int) -> tuple[int, ...]:
 
 
 def remove_missing_rows(
-    y: np.ndarray, u: np.ndarray, starts: tuple[int, ...]
-) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
+    y: np.ndarray, u: np.ndarray, starts: tuple[int, ...], times: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, tuple[int, ...]]:
     """Drop the samples with a NaN in any channel; where they were, a new segment starts.
 
-    Returns the remaining rows of ``y`` and ``u`` and the starts of their segments.
-    Raises :class:`DataError` when no sample is complete.
+    Returns the remaining rows of ``y`` and ``u``, their time stamps (None without
+    ``times``) and the starts of their segments. Raises :class:`DataError` when no
+    sample is complete.
     """
     missing = np.isnan(y).any(axis=1) | np.isnan(u).any(axis=1)
     if not missing.any():
-        return y, u, starts
+        return y, u, times, starts
     kept = np.flatnonzero(~missing)
     if kept.size == 0:
         raise DataError(f"every one of the {missing.size} samples has a missing (NaN) value")
@@ -53,7 +54,8 @@ def remove_missing_rows(
     begins[list(starts)] = True
     begins[1:] |= missing[:-1]              # the sample after a missing one starts a segment
     new_starts = np.flatnonzero(begins[kept])
-    return y[kept], u[kept], tuple(sorted({0, *new_starts.tolist()}))
+    return (y[kept], u[kept], None if times is None else times[kept],
+            tuple(sorted({0, *new_starts.tolist()})))
 
 
 def starts_in_slice(starts: tuple[int, ...], N: int, index: slice) -> tuple[int, ...]:

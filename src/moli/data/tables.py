@@ -220,10 +220,11 @@ def _seconds(table: Table, name: str, time_format: str | None) -> tuple[np.ndarr
     )
 
 
-def _period(table: Table, request: Request, channels: Sequence[str], samples: int
-            ) -> tuple[float, IrregularSamplingWarning | None, SamplingPeriodWarning | None]:
-    """The period of the record, the warning about irregular steps, and the notice of
-    where the period came from when the caller gave none."""
+def _period(table: Table, request: Request, channels: Sequence[str], samples: int) -> tuple[
+        float, np.ndarray | None, IrregularSamplingWarning | None, SamplingPeriodWarning | None]:
+    """The period of the record, its time stamps (None without a time column), the
+    warning about irregular steps, and the notice of where the period came from when
+    the caller gave none."""
     if isinstance(request.time_column, str) and request.time_column not in table.columns:
         raise DataError(f"{table.source} has no time column {request.time_column!r}; "
                         f"columns: {_listing(table)}")
@@ -233,7 +234,7 @@ def _period(table: Table, request: Request, channels: Sequence[str], samples: in
     chosen = request.Ts is None and table.Ts is None      # moli chose the period: say how
     if clock.time is None:
         Ts = 1.0 if Ts is None else Ts
-        return Ts, None, period_notice(table.source, clock, Ts, "") if chosen else None
+        return Ts, None, None, period_notice(table.source, clock, Ts, "") if chosen else None
     name = clock.time
     seconds, unit = _seconds(table, name, request.time_format)
     if len(seconds) != samples:
@@ -250,13 +251,16 @@ def _period(table: Table, request: Request, channels: Sequence[str], samples: in
     period, gaps = sampling_period(seconds, Ts, request.tolerance, where, stated or "given")
     notice = period_notice(table.source, clock, period, unit) if chosen else None
     if not gaps:
-        return period, None, notice
-    return period, irregular_warning(gaps, period, samples, request.tolerance, table.source,
-                                     table.row, unit), notice
+        return period, seconds, None, notice
+    return period, seconds, irregular_warning(gaps, period, samples, request.tolerance, table.source,
+                                              table.row, unit), notice
 
 
 def record(table: Table, request: Request) -> IOData:
     """The record a table holds; irregular time steps warn the public function's caller.
+
+    The record carries the time column's stamps as read (seconds since the first
+    sample for date-times), its segments starting at the gaps.
 
     Called straight from each public reader, so the warning points at the line that
     called that reader.
@@ -270,12 +274,12 @@ def record(table: Table, request: Request) -> IOData:
     if lengths == {0}:
         raise DataError(f"{table.source} has no data rows")
     _check_missing(table, list(columns), list(columns.values()))
-    Ts, warning, notice = _period(table, request, list(columns), lengths.pop())
+    Ts, times, warning, notice = _period(table, request, list(columns), lengths.pop())
     u = np.column_stack([columns[name] for name in inputs])
     y = np.column_stack([columns[name] for name in outputs])
     # a gap in the clock is a segment boundary, like a missing sample
     starts = None if warning is None else gap_starts(warning.gaps, Ts)
-    data = IOData(y, u, Ts, output_names=outputs, input_names=inputs, segment_starts=starts)
+    data = IOData(y, u, Ts, output_names=outputs, input_names=inputs, segment_starts=starts, times=times)
     for found in (warning, notice):
         if found is not None:
             warnings.warn(found, stacklevel=3)
@@ -312,6 +316,8 @@ def from_columns(
     Returns
     -------
     IOData
+        With the time column's stamps in ``times`` (seconds since the first sample for
+        date-times), or ``times=None`` without a time column.
 
     Warns
     -----
@@ -375,6 +381,8 @@ def from_dataframe(
     Returns
     -------
     IOData
+        With the time column's stamps in ``times`` (seconds since the first sample for
+        date-times), or ``times=None`` without a time column.
 
     Examples
     --------
