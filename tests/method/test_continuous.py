@@ -48,15 +48,8 @@ def sampled(t: np.ndarray, u: np.ndarray, A=A_TRUE, B=B_TRUE, C=C_TRUE) -> np.nd
 
 
 def stamped(y: np.ndarray, u: np.ndarray, t: np.ndarray, at: float = 0.7) -> tuple[moli.IOData, moli.IOData]:
-    """Estimation and validation records (the first ``at`` of the samples, the rest) whose
-    ``time()`` gives the stamps ``t``."""
-    cut = int(round(at * t.size))
-    parts = []
-    for rows in (slice(0, cut), slice(cut, None)):
-        part = moli.IOData(y[rows], u[rows], Ts=float(np.median(np.diff(t))))
-        part.time = lambda stamps=t[rows]: stamps
-        parts.append(part)
-    return parts[0], parts[1]
+    """Estimation and validation records with the stamps ``t``: the first ``at`` of the samples, the rest."""
+    return moli.IOData(y, u, times=t).split(at) if at < 1 else (moli.IOData(y, u, times=t), None)
 
 
 def pole_errors(estimated: np.ndarray, true: np.ndarray = POLES) -> np.ndarray:
@@ -203,8 +196,8 @@ def test_bad_continuous_inputs_get_clear_errors():
     y = sampled(t, u)
     backwards = t.copy()
     backwards[100] = backwards[99]
-    with pytest.raises(DataError, match="sample 100"):
-        moli.identify(*stamped(y, u, backwards), time="continuous", nmax=4)
+    with pytest.raises(DataError, match="100"):
+        moli.identify(moli.IOData(y, u, times=backwards), time="continuous", nmax=4)
     with pytest.raises(OptionError, match="refined"):
         moli.identify(moli.IOData(y, u, Ts=0.01), time="continuous", order_rule="refined")
     with pytest.raises(OptionError, match="zoom"):

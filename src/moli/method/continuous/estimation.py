@@ -180,24 +180,27 @@ def fit_list(factor: np.ndarray, wc: float, zeta: float, indices: Indices, s: fl
 
 
 def simulate_stamped(A: np.ndarray, B: np.ndarray, C: np.ndarray, record: StampedRecord,
-                     linear_inputs: bool) -> list[np.ndarray]:
+                     linear_inputs: bool, warm_up: float = 1.0) -> list[np.ndarray]:
     """Each segment's simulated outputs, from the initial state that fits it best.
 
     A record cut at gaps starts its segments mid-motion, so each segment's initial
     state is the least-squares fit of the free responses ``C exp(A t) e_i`` (beside a
-    constant per output) to what the forced response leaves (docs/continuous.md §5).
+    constant per output) to what the forced response leaves on the segment's first
+    ``warm_up`` share of samples (docs/continuous.md §5).
     """
     n = A.shape[0]
     linear = np.full((record.m, 1), linear_inputs)
     out = []
     for t, y, u in zip(record.times, record.y, record.u):
+        rows = max(int(np.ceil(warm_up * t.size)), 1)
         forced = propagate(A, B, t - t[0], u[:, :, None], linear)[:, :, 0] @ C.T
         free = C @ propagate(A, np.zeros((n, 1)), t - t[0], np.zeros((t.size, 1, n)),
                              np.zeros((1, n), bool), start=np.eye(n))                  # (N, p, n)
         if np.all(np.isfinite(free)) and np.all(np.isfinite(forced)):
             # with an offset per output: the record's means need not be an equilibrium
             basis = np.concatenate([free, np.broadcast_to(np.eye(y.shape[1]), (t.size,) + (y.shape[1],) * 2)], axis=2)
-            fitted = np.linalg.lstsq(basis.reshape(-1, basis.shape[2]), (y - forced).ravel(), rcond=None)[0]
+            fitted = np.linalg.lstsq(basis[:rows].reshape(-1, basis.shape[2]), (y - forced)[:rows].ravel(),
+                                     rcond=None)[0]
             forced = forced + free @ fitted[:n]
         out.append(forced)
     return out

@@ -21,7 +21,10 @@ from ..tuning import barycenter
 from .estimation import StampedRecord, filter_factor, fit_list, simulate_stamped
 from .filters import unit_divisors
 
-__all__ = ["ContinuousStep", "ContinuousSearch", "error_ratios"]
+__all__ = ["ContinuousStep", "ContinuousSearch", "error_ratios", "WARM_UP"]
+
+# Share of each validation segment on which its initial state is fitted (and not scored).
+WARM_UP = 0.2
 
 
 @dataclass
@@ -149,11 +152,21 @@ class ContinuousSearch:
                                self.offsets[1].copy(), (0.0,) * m)
 
     def _validate(self, model: ContinuousModel) -> tuple[np.ndarray, np.ndarray]:
+        """Validation VAF and error shares on each segment past its warm-up.
+
+        The initial state is fitted on a segment's first :data:`WARM_UP` share and the
+        errors are counted on the rest: fitted and counted on the same samples, a
+        higher order would buy validation fit with its extra initial states alone.
+        """
         with np.errstate(all="ignore"):
-            simulated = simulate_stamped(model.A, model.B, model.C, self.validation, self.linear_inputs)
-        ratios = error_ratios(simulated, self.validation.y)
+            simulated = simulate_stamped(model.A, model.B, model.C, self.validation, self.linear_inputs,
+                                         WARM_UP)
+        kept = [slice(int(np.ceil(WARM_UP * t.size)), None) for t in self.validation.times]
+        simulated = [part[rows] for part, rows in zip(simulated, kept)]
+        measured = tuple(part[rows] for part, rows in zip(self.validation.y, kept))
+        ratios = error_ratios(simulated, measured)
         vaf = 100.0 * (1.0 - np.minimum(ratios, 1.0))
-        y = np.concatenate(self.validation.y)
+        y = np.concatenate(measured)
         scale = 100.0 / (y.shape[1] * np.maximum(np.sum((y - y.mean(axis=0)) ** 2, axis=0), 1e-300))
         with np.errstate(all="ignore"):
             shares = ((y - np.concatenate(simulated)) ** 2) @ scale
