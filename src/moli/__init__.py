@@ -39,7 +39,7 @@ _HOMES = {
     "filter_polynomial": "method", "IdentificationResult": "method", "identify": "method",
     "IdentifyOptions": "method", "PathStep": "method", "estimate_noise_model": "method",
     "estimate_covariance": "method",
-    "identify_many": "method", "FleetResult": "method",
+    "identify_many": "method", "FleetResult": "method", "ContinuousResult": "method",
     "RecursiveMoli": "streaming", "ChunkedEstimator": "streaming", "FilterBank": "streaming",
     "estimate_chunks": "streaming",
     "example_data": "systems", "example_plant": "systems", "experiment": "systems",
@@ -62,7 +62,7 @@ if TYPE_CHECKING:  # what the lazy names are, for type checkers and IDEs
         remove_outliers, to_dataframe,
     )
     from .method import (
-        FleetResult, IdentificationResult, IdentifyOptions, PathStep, divisor, divisors, estimate,
+        ContinuousResult, FleetResult, IdentificationResult, IdentifyOptions, PathStep, divisor, divisors, estimate,
         estimate_covariance, estimate_noise_model, filter_polynomial, identify, identify_many,
     )
     from .models import ContinuousModel, StateSpaceModel, load_model

@@ -206,5 +206,7 @@ def test_bad_continuous_inputs_get_clear_errors():
                             ("y1",), ("u1",), np.zeros(1), np.zeros(1), (0.0,))
     with pytest.raises(DataError, match="time stamps"):
         model.simulate(np.ones(5))
+    with pytest.raises(DataError, match="not a sampling period"):
+        model.simulate(np.ones(5), 0.1)
     with pytest.raises(DataError, match="increase"):
         model.simulate(np.ones(3), [0.0, 2.0, 1.0])

@@ -10,9 +10,11 @@ of observability indices), :mod:`.filters` (the filter α and its divisors),
 (Kalman gain from the residuals), :mod:`.covariance` and :mod:`.uncertainty` (the
 covariance of the parameters and of the matrices), :mod:`.options` and :mod:`.identification` (the
 one-call entry point); :mod:`.fleet` identifies many records
-at once on the backends of :mod:`.backends`.
+at once on the backends of :mod:`.backends`. :mod:`.continuous` is the same method in
+continuous time (docs/continuous.md).
 """
 
+from .continuous import ContinuousResult, ContinuousStep
 from .estimation import estimate, realize
 from .fleet import FleetEntry, FleetResult, identify_many
 from .filters import divisor, divisors, filter_polynomial
@@ -28,5 +30,5 @@ __all__ = [
     "estimate", "realize", "divisor", "divisors", "filter_polynomial", "IdentificationResult",
     "identify", "IdentifyOptions", "estimate_noise_model", "RefineResult", "refine", "refine_each", "PathStep", "exhaustive",
     "TuningResult", "default_omega", "tune_filter", "estimate_covariance",
-    "FleetEntry", "FleetResult", "identify_many",
+    "FleetEntry", "FleetResult", "identify_many", "ContinuousResult", "ContinuousStep",
 ]

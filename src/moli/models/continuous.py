@@ -145,6 +145,9 @@ class ContinuousModel(Dimensions):
         stamps = np.array(t, dtype=float, ndmin=1)
         if inputs.ndim != 2 or inputs.shape[1] != self.m or not np.all(np.isfinite(inputs)):
             raise DataError(f"u must be finite with shape (N, {self.m}), got shape {np.shape(u)}")
+        if np.ndim(t) == 0:
+            raise DataError(f"t must be the time stamps, one per row of u, not a sampling period ({t!r}): "
+                            f"for samples T apart pass t = T * np.arange({inputs.shape[0]})")
         if stamps.shape != (inputs.shape[0],) or not np.all(np.isfinite(stamps)):
             raise DataError(f"t must be finite with shape ({inputs.shape[0]},) (one stamp per row of u), "
                             f"got shape {np.shape(t)}")
