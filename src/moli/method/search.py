@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 
@@ -19,11 +19,28 @@ from .scoring import FilterScorer
 from .tuning import tune_filters
 from ..validation.comparison import compare
 
-__all__ = ["PathStep", "StructureSearch", "greedy_path", "exhaustive"]
+__all__ = ["ScoredStep", "PathStep", "StructureSearch", "greedy_path", "exhaustive"]
+
+
+class ScoredStep:
+    """What the order rules read of a path step: its validation VAF and its model's stability."""
+
+    vaf: np.ndarray
+    model: Any
+
+    @property
+    def mean_vaf(self) -> float:
+        """Average validation VAF over the outputs, percent."""
+        return float(np.mean(self.vaf))
+
+    @property
+    def stable(self) -> bool:
+        """Whether the model is asymptotically stable."""
+        return self.model.is_stable()
 
 
 @dataclass
-class PathStep:
+class PathStep(ScoredStep):
     """One list of indices, its tuned filter, its model and its scores.
 
     Attributes
@@ -57,16 +74,6 @@ class PathStep:
     model: StateSpaceModel = field(repr=False)
     seconds: float
     output_etas: np.ndarray | None = None
-
-    @property
-    def mean_vaf(self) -> float:
-        """Average validation VAF over the outputs, percent."""
-        return float(np.mean(self.vaf))
-
-    @property
-    def stable(self) -> bool:
-        """Whether the model is asymptotically stable."""
-        return self.model.is_stable()
 
 
 class StructureSearch:

@@ -16,6 +16,7 @@ from typing import Callable
 import numpy as np
 
 from ...models.continuous import ContinuousModel
+from ..search import ScoredStep
 from ..structure import Indices, raised
 from ..tuning import barycenter
 from .estimation import StampedRecord, filter_factor, fit_list, simulate_stamped
@@ -28,7 +29,7 @@ WARM_UP = 0.2
 
 
 @dataclass
-class ContinuousStep:
+class ContinuousStep(ScoredStep):
     """One list of indices on the continuous path: its filter, model and scores.
 
     Attributes
@@ -59,14 +60,6 @@ class ContinuousStep:
     seconds: float
     errors: np.ndarray = field(repr=False)
     thetas: list[np.ndarray] = field(repr=False, default_factory=list)
-
-    @property
-    def mean_vaf(self) -> float:
-        return float(np.mean(self.vaf))
-
-    @property
-    def stable(self) -> bool:
-        return self.model.is_stable()
 
 
 def error_ratios(simulated: list[np.ndarray], measured: tuple[np.ndarray, ...]) -> np.ndarray:
