@@ -41,7 +41,7 @@ def test_exact_recovery_of_markov_parameters(n, p, m):
         assert error < 1e-8, (wc, zeta, error)
 
 
-def _observer_form(theta, alphas, indices, m):
+def observer_form_matrices(theta, alphas, indices, m):
     """docs/method.md §4 written out entry by entry: A_D, C_D, D, B, G."""
     p = len(indices)
     n = sum(indices)
@@ -75,7 +75,7 @@ def test_observer_form_is_io_equivalent_to_realization(indices, m):
     alphas = moli.divisors(moli.filter_polynomial(0.4, 0.8, indices), indices)
     theta = [0.3 * rng.standard_normal((p + m) * l + j) for j, l in enumerate(indices)]
     A, B, C = (M[0] for M in realize([t[None] for t in theta], [alphas], indices, m))
-    A_D, C_D, D, B_o, G = _observer_form(theta, alphas, indices, m)
+    A_D, C_D, D, B_o, G = observer_form_matrices(theta, alphas, indices, m)
     np.testing.assert_allclose(B, B_o)
     # observer form driven by the model's own output: same output, same state
     u = rng.standard_normal((60, m))

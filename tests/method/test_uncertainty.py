@@ -10,7 +10,7 @@ import pytest
 import moli
 import moli.method.identification as identification
 from moli.method.covariance import _moving_sums, matrix_directions, sandwich_factor
-from moli.method.estimation import _observer_form, output_regressors
+from moli.method.estimation import observer_form_matrices, output_regressors
 from moli.method.scoring import _realize_feedthrough
 
 # A resonant SISO plant of order 2 (poles 0.8 exp(±0.4j), a zero at -0.5) and the
@@ -102,7 +102,7 @@ def test_jacobian_matches_finite_differences_of_the_realization():
     A, B, C, D = _realize_feedthrough(
         [np.concatenate([t, np.zeros(m)])[None] if not f else t[None]
          for t, f in zip(np.split(theta, np.cumsum(sizes)[:-1]), through)], [alphas], indices, m)
-    injection = _observer_form(
+    injection = observer_form_matrices(
         [t[None, : (p + m) * l + j] for j, (t, l) in enumerate(zip(np.split(theta, np.cumsum(sizes)[:-1]), indices))],
         [alphas], indices, m)[3][0]
     directions = rng.standard_normal((5, theta.size))
@@ -229,6 +229,6 @@ def test_output_regressors_are_the_estimation_problems():
     z = np.concatenate([data.y, data.u], axis=1)
     (phi,) = output_regressors(z, (2,), [FILTER])
     theta = np.linalg.lstsq(phi, data.y[2:, 0], rcond=None)[0]
-    A, B, C, _ = _observer_form([theta[None]], [[FILTER]], (2,), 1)
+    A, B, C, _ = observer_form_matrices([theta[None]], [[FILTER]], (2,), 1)
     # the same least squares as moli.estimate, solved another way: round-off only
     np.testing.assert_allclose(A[0], moli.estimate(data, [2], FILTER).A, atol=1e-10)

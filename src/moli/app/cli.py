@@ -301,6 +301,8 @@ def fit(data_files: tuple[Path, ...], inputs: str | None, outputs: str | None, d
         data = remove_outliers(data)
         click.echo(f"outliers replaced by linear interpolation: {removed}")
     if options.time == "continuous":
+        if all_lists:
+            raise OptionError("--all-lists is for the discrete search: leave it out with --continuous")
         fit_continuous(data, fraction, options, noted, model_path, report_dir,
                        data_files[0] if len(data_files) == 1 else None)
         return

@@ -22,6 +22,7 @@ from ..data.display import figure_label, report_name
 from ..data.files import file_sha256
 from ..method.continuous.estimation import simulate_stamped, stamped_record
 from ..method.continuous.identification import ContinuousResult
+from ..method.continuous.search import WARM_UP
 from ..models.bands import magnitude_bands
 from .report import STYLE, embedded_image, facts_table
 
@@ -47,7 +48,10 @@ def _gain_table(result: ContinuousResult) -> str:
     if not model.is_stable():
         return "<p>The model is not stable: it has no static gain.</p>"
     gain = model.static_gain()
-    lower, upper = model.static_gain_interval()
+    if model.cov_factor is None:
+        lower = upper = np.full(gain.shape, np.nan)
+    else:
+        lower, upper = model.static_gain_interval()
     head = "<th></th>" + "".join(f"<th>{html.escape(report_name(u))}</th>" for u in model.input_names)
     rows = "".join(
         f"<tr><th scope='row'>{html.escape(report_name(y))}</th>"
@@ -59,11 +63,13 @@ def _gain_table(result: ContinuousResult) -> str:
 def _validation_figure(result: ContinuousResult) -> Figure:
     record = stamped_record(result.validation)
     simulated = simulate_stamped(result.model.A, result.model.B, result.model.C, record,
-                                 result.options.input_hold == "foh")
+                                 result.options.input_hold == "foh", WARM_UP)
     fig = figures.new_figure(7.0, figures.PANEL_HEIGHT * result.model.p + 0.4)
     axes = fig.subplots(result.model.p, 1, sharex=True, squeeze=False)[:, 0]
     for k, (t, y, yhat) in enumerate(zip(record.times, record.y, simulated)):
+        warm = t[min(int(np.ceil(WARM_UP * t.size)), t.size - 1)]
         for i, ax in enumerate(axes):
+            ax.axvspan(t[0], warm, color="0.92", lw=0)
             ax.plot(t, y[:, i], color="0.5", lw=0.8, label="measured" if k == 0 else None)
             ax.plot(t, yhat[:, i], color="C1", lw=0.9, label="model" if k == 0 else None)
     for ax, name in zip(axes, result.model.output_names):
@@ -78,7 +84,7 @@ def _gain_figure(result: ContinuousResult) -> Figure:
     speeds = np.abs(model.poles())
     omega = np.geomspace(max(speeds.min(), 1e-12) / FREQUENCY_MARGIN, speeds.max() * FREQUENCY_MARGIN, 200)
     gain = np.abs(model.frequency_response(omega))
-    lower, upper = magnitude_bands(model, omega)
+    lower, upper = magnitude_bands(model, omega) if model.cov_factor is not None else (gain, gain)
     fig, axes = figures.channel_grid(model, "gain", "rad per time unit")
     for i in range(model.p):
         for j in range(model.m):
@@ -119,7 +125,8 @@ def write_continuous_report(result: ContinuousResult, directory: str | Path,
              "selected by": f"{result.selection} ({result.validation_source})"}
     drawn = {
         "validation": (_validation_figure(result), "Validation record (grey) and the model's simulation "
-                       "on the same time stamps, each segment from its fitted initial state."),
+                       "on the same time stamps. Each segment's initial state is fitted on its "
+                       f"first {WARM_UP:.0%} (shaded), and the VAF counts the rest."),
         "magnitude": (_gain_figure(result), "Gain of each channel against frequency, shaded: pointwise "
                       "95 % confidence band of the estimate."),
     }
@@ -138,6 +145,7 @@ total {result.seconds:.1f} s. docs/continuous.md says what the method assumes.</
 <h2>Selected model</h2>{facts_table(facts)}
 <h3>Poles (rad per time unit)</h3><ul>{poles}</ul>
 <h3>Static gains with their 95 % intervals</h3>{_gain_table(result)}
+{"" if result.covariance_note is None else f"<p>No covariance, so no intervals or bands: {html.escape(result.covariance_note)}</p>"}
 <h2>Greedy structure path</h2>
 <p class="note">J: the criterion on the estimation record. VAF: validation record, percent.</p>
 {_path_table(result)}

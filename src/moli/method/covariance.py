@@ -27,7 +27,7 @@ from ..errors import DataError
 from .row_blocks import fold
 
 __all__ = ["sandwich_factor", "streamed_sandwich_factor", "long_run_covariance",
-           "matrix_directions", "matrix_covariance"]
+           "matrix_directions", "matrix_covariance", "sandwich_root", "check_rank"]
 
 # A problem whose column-scaled factor has max|r_ii| / min|r_ii| beyond this gets the
 # minimum-norm solution in the estimation (solve_batch): its parameters are not
@@ -138,7 +138,7 @@ def sandwich_factor(
             # block by block: a tall QR in one piece runs out of cache and is several times slower
             block = np.column_stack([phi[start : start + BLOCK_ROWS] / norms, targets[start : start + BLOCK_ROWS, j]])
             r = np.linalg.qr(np.concatenate([r, block]), mode="r")
-        _check_rank(np.abs(np.diagonal(r)[:k]), j)
+        check_rank(np.abs(np.diagonal(r)[:k]), j)
         solution = scipy.linalg.solve_triangular(r[:k, :k], r[:k, k])
         np.divide(phi, norms, out=scores)
         scores *= (targets[:, j] - scores @ solution)[:, None]
@@ -146,7 +146,7 @@ def sandwich_factor(
         # columns back in theta's units, and rows / (N' - k) in place of rows / N'
         solved.append((r[:k, :k], norms / math.sqrt(rows / (rows - k))))
     long_run, width = long_run_covariance(stacked, breaks)
-    return _sandwich(long_run, solved, splits), thetas, width
+    return sandwich_root(long_run, solved, splits), thetas, width
 
 
 def long_run_covariance(scores: np.ndarray, breaks: Sequence[int] = ()) -> tuple[np.ndarray, int]:
@@ -166,7 +166,7 @@ def long_run_covariance(scores: np.ndarray, breaks: Sequence[int] = ()) -> tuple
     return meat / width, width
 
 
-def _sandwich(long_run: np.ndarray, solved: list[tuple[np.ndarray, np.ndarray]], splits: np.ndarray) -> np.ndarray:
+def sandwich_root(long_run: np.ndarray, solved: list[tuple[np.ndarray, np.ndarray]], splits: np.ndarray) -> np.ndarray:
     """``F`` with ``F^T F = (R^T R)^-1 S (R^T R)^-1`` per output block, ``S`` the long-run covariance."""
     # any square root of the (positive semidefinite) long-run covariance will do:
     # S = root^T root, with round-off's tiny negative eigenvalues set to zero
@@ -180,7 +180,7 @@ def _sandwich(long_run: np.ndarray, solved: list[tuple[np.ndarray, np.ndarray]],
     return np.concatenate(parts, axis=1)
 
 
-def _check_rank(diag: np.ndarray, j: int) -> None:
+def check_rank(diag: np.ndarray, j: int) -> None:
     if not diag.min() > 0 or diag.max() / diag.min() >= RANK_LIMIT:
         raise DataError(
             f"the least-squares problem of output {j + 1} is rank deficient: its parameters, "
@@ -213,7 +213,7 @@ def streamed_sandwich_factor(
         norms = np.linalg.norm(r[:, :k], axis=0)          # the regressors' column norms
         norms[norms == 0] = 1.0
         scaled = r / np.append(norms, 1.0)                 # the factor of [phi / norms, y]
-        _check_rank(np.abs(np.diagonal(scaled)[:k]), j)
+        check_rank(np.abs(np.diagonal(scaled)[:k]), j)
         solution = scipy.linalg.solve_triangular(scaled[:k, :k], scaled[:k, k])
         thetas.append(solution / norms)
         scales.append((norms, solution))
@@ -245,7 +245,7 @@ def streamed_sandwich_factor(
         moving = sums[width:] - sums[:-width]
         meat += moving.T @ moving
         history = window[window.shape[0] - (width - 1) :] if width > 1 else history
-    return _sandwich(meat / width, solved, splits), thetas, width, rows
+    return sandwich_root(meat / width, solved, splits), thetas, width, rows
 
 
 def _separated_blocks(blocks: Iterable[np.ndarray], breaks: Sequence[int], gap: int, size: int) -> Iterator[np.ndarray]:

@@ -27,7 +27,7 @@ from .structure import Indices, check_indices
 
 __all__ = [
     "filtered_regressors", "segment_filtered", "output_regressors", "solve_batch", "realize", "fit_batch",
-    "check_sample_count", "estimate", "regressor_blocks",
+    "check_sample_count", "estimate", "regressor_blocks", "observer_form_matrices",
 ]
 
 # Condition numbers (of the column-scaled regressor) above this are reported:
@@ -213,7 +213,7 @@ def realize(
     -------
     A, B, C : ndarray, shapes (R, n, n), (R, n, m), (R, p, n)
     """
-    return _observer_form(thetas, alphas, indices, m)[:3]
+    return observer_form_matrices(thetas, alphas, indices, m)[:3]
 
 
 @functools.lru_cache(maxsize=None)
@@ -242,7 +242,7 @@ def _filter_companion(divisors_: Sequence[np.ndarray], indices: Indices) -> np.n
     return A_D
 
 
-def _observer_form(
+def observer_form_matrices(
     thetas: Sequence[np.ndarray], alphas: Sequence[Sequence[np.ndarray]], indices: Indices, m: int
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`realize`, and the output injection ``D_y`` with ``A = A_D + D_y C``.

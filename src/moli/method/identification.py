@@ -121,19 +121,22 @@ def identify(
             raise DataError(f"validation is sampled every Ts = {validation.Ts:g}, data every "
                             f"Ts = {data.Ts:g}; both records must share the sampling period")
         estimation, source = data, "given"
-    if opts.time == "continuous":
-        return identify_continuous(estimation, validation, source, opts, progress)
-    estimation = long_segments(estimation, opts.path_end(data.p), opts.feedthrough is not False)
-    if opts.center:
-        estimation = estimation.remove_means()
-        validation = validation.remove_means(estimation.y_offset, estimation.u_offset)
-    p = estimation.p
+    p = data.p
     if opts.order is not None and opts.order < p:
         raise OptionError(f"IdentifyOptions.order must be at least the number of outputs, {p} "
                           f"(the path starts at n = p); got {opts.order}")
     nmax = opts.path_end(p)
     if nmax < p:
         raise OptionError(f"IdentifyOptions.nmax must be at least the number of outputs, {p}; got {nmax}")
+    if opts.time == "continuous":
+        return identify_continuous(estimation, validation, source, opts, progress)
+    if opts.input_hold != "zoh":
+        raise OptionError(f"IdentifyOptions.input_hold={opts.input_hold!r} applies in continuous time only "
+                          "(time='continuous'): a sampled model takes each input as it is sampled")
+    estimation = long_segments(estimation, opts.path_end(data.p), opts.feedthrough is not False)
+    if opts.center:
+        estimation = estimation.remove_means()
+        validation = validation.remove_means(estimation.y_offset, estimation.u_offset)
     grid = default_omega(estimation.Ts, opts.filter_grid) if opts.omega is None else np.array(opts.omega)
     radius = opts.max_radius
     if radius == "auto":

@@ -23,7 +23,7 @@ from .filters import _needs_real, filter_rows
 from .row_blocks import WHOLE_ROWS, lagged_blocks, streamed_factor
 from .structure import Indices
 
-__all__ = ["RegressionCache"]
+__all__ = ["RegressionCache", "quotient_map", "reduced_problems"]
 
 FEEDTHROUGH_CHOICES = (False, True, "auto")
 # Significance level of the "auto" feedthrough test. Strict, because the equation
@@ -186,10 +186,10 @@ class RegressionCache:
         for (nbar, j, l), members in groups.items():
             batch = (tuple(members), l)
             if batch not in self._quotients:
-                self._quotients[batch] = _quotient_map(
+                self._quotients[batch] = quotient_map(
                     np.stack([a for a, _ in members.values()]), np.stack([d for _, d in members.values()])
                 )
-            small, rhs = _small_problems(
+            small, rhs = reduced_problems(
                 np.stack([factors[k] for k in members]), self._quotients[batch], c, self.p, j, extra_u
             )
             if self.feedthrough == "auto":
@@ -215,7 +215,7 @@ class RegressionCache:
         """Solve with feedthrough, and keep it only where an F-test on the estimation data asks.
 
         ``small`` (R, k, q) and ``rhs`` (R, k) are reduced problems
-        (:func:`_small_problems`) of filters of degree ``nbar``, with the ``m``
+        (:func:`reduced_problems`) of filters of degree ``nbar``, with the ``m``
         feedthrough columns last. The residual sums of squares of the reduced problems
         equal those of the full ones (``|X v| = |R v|``), and one triangular factor of
         the column-scaled ``[M, b]`` gives both nested fits: the problem without
@@ -327,7 +327,7 @@ def _f_critical(m: int, dof: int) -> float:
     return float(scipy.stats.f.isf(FEEDTHROUGH_LEVEL, m, dof))
 
 
-def _quotient_map(alpha: np.ndarray, alpha_j: np.ndarray) -> np.ndarray:
+def quotient_map(alpha: np.ndarray, alpha_j: np.ndarray) -> np.ndarray:
     """``(nbar, l)`` matrix ``Q`` with ``Q[t, i]`` the weight of ``q^t/alpha`` in ``q^i/alpha_j``.
 
     With ``alpha/alpha_j = sum_k c_k q^(d-k)``, ``d = nbar - l``:
@@ -355,14 +355,14 @@ def _band(nbar: int, l: int) -> np.ndarray:
     return np.where((k >= 0) & (k <= d), k, d + 1)
 
 
-def _small_problems(
+def reduced_problems(
     factors: np.ndarray, quotients: np.ndarray, c: int, p: int, j: int, m: int
 ) -> tuple[np.ndarray, np.ndarray]:
     """``(R T, R e)``: output ``j``'s least-squares problems reduced by the factors ``R``.
 
     ``T`` maps ``[xi, y]`` to output ``j``'s regressors ``[w_j, y_<j]``: column ``r l + i``
     of ``w_j`` is ``q^i/alpha_j`` applied to channel ``r``, the combination of the columns
-    ``r nbar + t`` of ``xi`` given by :func:`_quotient_map`; with ``m > 0`` the factors are
+    ``r nbar + t`` of ``xi`` given by :func:`quotient_map`; with ``m > 0`` the factors are
     of ``[xi, y, u]`` and the current inputs follow (direct feedthrough). ``T`` is never
     formed.
 
@@ -371,7 +371,7 @@ def _small_problems(
     factors : ndarray, shape (B, k, c nbar + p [+ m])
         Triangular factors of ``[xi, y]`` (``[xi, y, u]`` with feedthrough), one per filter.
     quotients : ndarray, shape (B, nbar, l)
-        Each filter's :func:`_quotient_map` for output ``j``'s divisor.
+        Each filter's :func:`quotient_map` for output ``j``'s divisor.
     c, p, j, m : int
         Signals, outputs, the output and the feedthrough inputs (0 for none).
 

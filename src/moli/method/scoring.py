@@ -17,7 +17,7 @@ import numpy as np
 from ..errors import OptionError
 from ..models.simulation import simulate_batch
 from ..validation.comparison import X0_CHOICES
-from .estimation import _observer_form, fit_batch, realize
+from .estimation import observer_form_matrices, fit_batch, realize
 from .filters import filter_divisors
 from .regression import RegressionCache
 from .structure import Indices
@@ -77,7 +77,7 @@ def _realize_feedthrough(
     ``y = (I - G)^-1 (C_D x + F u)``: ``C`` is unchanged, ``D = (I - G)^-1 F``, and the
     observer's output injection ``D_y y`` adds ``D_y D`` to ``B``.
     """
-    A, B, C, D_y = _observer_form([t[:, :-m] for t in thetas], parts, indices, m)
+    A, B, C, D_y = observer_form_matrices([t[:, :-m] for t in thetas], parts, indices, m)
     F = np.stack([t[:, -m:] for t in thetas], axis=1)             # (R, p, m)
     H = C[:, :, np.cumsum(indices) - 1]                           # (I - G)^-1
     D = H @ F

@@ -27,9 +27,11 @@ __all__ = ["interval_maps", "propagate", "is_regular"]
 # Steps equal to this share of their median are one step: stamps k * T written in
 # floating point differ from it by a few ulps of t_k, far below this.
 REGULAR_SPREAD = 1e-9
-# Eigenvectors better conditioned than this give the modal maps; beyond it (repeated
-# or clustered poles) the per-interval matrix exponential is used.
-MODAL_CONDITION = 1e8
+# Eigenvectors better conditioned than this give the modal maps (their round-off
+# grows with the condition: about 1e-10 relative here); beyond it (repeated or
+# clustered poles, filters of degree 9 and more) the per-interval matrix exponential
+# is used.
+MODAL_CONDITION = 1e6
 # The doubling stops once the map's products are below round-off of the sums.
 NEGLIGIBLE = 1e-18
 # |x| below this: phi_2(x) = (e^x - 1 - x) / x^2 by its series (the closed form
@@ -102,6 +104,7 @@ def propagate(F: np.ndarray, G: np.ndarray, times: np.ndarray, signal: np.ndarra
     return _sum_varying(np.concatenate([np.zeros((1, n, n)), Phi]), np.concatenate([first[None], drive]))
 
 
+@np.errstate(over="ignore", invalid="ignore")   # an unstable map's overflow is reported as inf
 def _sum_constant(Phi: np.ndarray, drive: np.ndarray) -> np.ndarray:
     """``x_k = sum_{i <= k} Phi^(k-i) drive_i`` along axis 1 of ``drive`` (n, K, c)."""
     n, K, c = drive.shape
@@ -109,6 +112,10 @@ def _sum_constant(Phi: np.ndarray, drive: np.ndarray) -> np.ndarray:
     power, span = Phi.copy(), 1
     scale = np.max(np.abs(Phi)) if Phi.size else 0.0
     while span < K and np.max(np.abs(power)) > NEGLIGIBLE * max(scale, 1.0):
+        if not np.all(np.isfinite(power)):
+            # an unstable map overflowed: the states it reaches are not finite
+            total[:, span:] = np.inf
+            break
         reach = (power @ total[:, : K - span].reshape(n, -1)).reshape(n, K - span, c)
         total[:, span:] += reach
         power = power @ power

@@ -22,8 +22,8 @@ import scipy.linalg
 
 from ...data.iodata import IOData
 from ...errors import DataError
-from ..estimation import _observer_form
-from ..regression import _quotient_map, _small_problems
+from ..estimation import observer_form_matrices
+from ..regression import quotient_map, reduced_problems
 from ..structure import Indices
 from .filters import unit_divisors
 from ...models.propagation import propagate
@@ -54,10 +54,12 @@ class StampedRecord:
 
     @property
     def p(self) -> int:
+        """Number of outputs."""
         return self.y[0].shape[1]
 
     @property
     def m(self) -> int:
+        """Number of inputs."""
         return self.u[0].shape[1]
 
     def steps(self) -> np.ndarray:
@@ -65,10 +67,17 @@ class StampedRecord:
         return np.concatenate([np.diff(t) for t in self.times])
 
     def durations(self) -> np.ndarray:
+        """Each segment's span from its first stamp to its last."""
         return np.array([t[-1] - t[0] for t in self.times])
 
     def rows(self, skip: int) -> int:
+        """Regression rows when each segment drops its first ``skip`` samples."""
         return sum(max(t.size - skip, 0) for t in self.times)
+
+    def with_rows(self, skip: int) -> int:
+        """Segments that keep rows when each drops its first ``skip`` samples: each has a
+        transient channel (:func:`observer_rows`)."""
+        return sum(t.size > skip for t in self.times)
 
 
 def stamped_record(data: IOData, gap_factor: float = GAP_FACTOR) -> StampedRecord:
@@ -110,28 +119,48 @@ def _companion(alpha: np.ndarray) -> np.ndarray:
 
 def observer_rows(record: StampedRecord, wc: float, alpha: np.ndarray, linear_inputs: bool,
                   skip: int) -> list[np.ndarray]:
-    """Per segment, the rows ``[xi, y]``, the first ``skip`` dropped.
+    """Per segment, the rows ``[xi, y, 1]``, the first ``skip`` dropped.
 
-    ``xi`` has ``nbar`` columns (``r nbar + t``) for each of the ``p + m`` channels; then
-    for a constant channel (1 throughout), whose filtered values take up the offset of
-    records centred on means that are not an equilibrium; then for each segment the
-    channel of an impulse at its first stamp, zero in the other segments: its filtered
-    values ``exp(F tau) e_nbar`` span every transient of the observer's unknown
-    initial state there (docs/continuous.md §4).
+    ``xi`` has ``nbar`` columns (``r nbar + t``) for each of the ``p + m`` channels, then
+    for each segment (with rows) the channel of an impulse at its first stamp, zero in
+    the other segments: its filtered values ``exp(F tau) e_nbar`` span every transient
+    of the observer's unknown initial state there. The last column, 1 throughout, takes
+    up the offset of a record centred on means that are not an equilibrium: a constant
+    filtered from rest is that constant's steady value plus the impulse channel's
+    transients (docs/continuous.md §4).
+
+    Parameters
+    ----------
+    record : StampedRecord
+    wc : float
+        The filter's cutoff: its time unit is ``1 / wc``.
+    alpha : ndarray
+        The filter polynomial for ``wc = 1`` (:func:`unit_divisors`).
+    linear_inputs : bool
+        Inputs linear between samples (else held); outputs are always linear.
+    skip : int
+        Samples dropped at each segment's start.
+
+    Returns
+    -------
+    list of ndarray
+        One array of shape (N_s - skip, (p + m + S) nbar + p + 1) per segment with rows.
     """
     nbar = alpha.size - 1
     F = _companion(alpha)
     G = np.eye(nbar)[:, -1:]
-    p, m, S = record.p, record.m, len(record.times)
-    linear = np.array([[True] * p + [linear_inputs] * m + [False]])
+    p, m, S = record.p, record.m, record.with_rows(skip)
+    linear = np.array([[True] * p + [linear_inputs] * m])
     rows = []
-    for k, (t, y, u) in enumerate(zip(record.times, record.y, record.u)):
-        z = np.concatenate([y, u, np.ones((t.size, 1))], axis=1)
-        xi = np.zeros((t.size, nbar, p + m + 1 + S))
-        xi[:, :, : p + m + 1] = propagate(F, G, wc * (t - t[0]), z[:, None, :], linear)
-        xi[:, :, p + m + 1 + k] = propagate(F, G, wc * (t - t[0]), np.zeros((t.size, 1, 1)),
+    kept = [k for k, t in enumerate(record.times) if t.size > skip]
+    for k, (t, y, u) in enumerate((record.times[i], record.y[i], record.u[i]) for i in kept):
+        z = np.concatenate([y, u], axis=1)
+        xi = np.zeros((t.size, nbar, p + m + S))
+        xi[:, :, : p + m] = propagate(F, G, wc * (t - t[0]), z[:, None, :], linear)
+        xi[:, :, p + m + k] = propagate(F, G, wc * (t - t[0]), np.zeros((t.size, 1, 1)),
                                         np.zeros((1, 1), bool), start=G)[:, :, 0]
-        rows.append(np.concatenate([xi.transpose(0, 2, 1).reshape(t.size, -1), y], axis=1)[skip:])
+        rows.append(np.concatenate([xi.transpose(0, 2, 1).reshape(t.size, -1), y, np.ones((t.size, 1))],
+                                   axis=1)[skip:])
     return rows
 
 
@@ -147,15 +176,17 @@ def output_problems(factor: np.ndarray, alpha: np.ndarray, divisors: list[np.nda
     """Each output's least-squares problem ``(matrix, target)`` reduced by ``factor``."""
     problems = []
     for j, alpha_j in enumerate(divisors):
-        quotient = _quotient_map(alpha, alpha_j)
-        matrix, target = _small_problems(factor[None], quotient[None], channels, p, j, 0)
+        quotient = quotient_map(alpha, alpha_j)
+        # the constant column rides where the discrete route puts a feedthrough input
+        matrix, target = reduced_problems(factor[None], quotient[None], channels, p, j, 1)
         problems.append((matrix[0], target[0]))
     return problems
 
 
 def model_part(theta: np.ndarray, l: int, p: int, m: int, channels: int) -> np.ndarray:
-    """Output parameters without the transients': ``(p + m) l`` filter weights, then the ``y_<j`` ones."""
-    return np.concatenate([theta[: (p + m) * l], theta[channels * l :]])
+    """Output parameters without the nuisances (transients, offset): the ``(p + m) l``
+    filter weights, then the ``y_<j`` ones."""
+    return np.concatenate([theta[: (p + m) * l], theta[channels * l : -1]])
 
 
 def solve_scaled(matrix: np.ndarray, target: np.ndarray) -> np.ndarray:
@@ -172,10 +203,10 @@ def fit_list(factor: np.ndarray, wc: float, zeta: float, indices: Indices, s: fl
     (each output's parameters, the transients' included)."""
     alpha, *divisors = unit_divisors(zeta, indices, s)
     p, nbar = len(indices), alpha.size - 1
-    channels = (factor.shape[1] - p) // nbar
+    channels = (factor.shape[1] - p - 1) // nbar
     thetas = [solve_scaled(*problem) for problem in output_problems(factor, alpha, divisors, p, channels)]
     parts = [model_part(theta, l, p, m, channels)[None] for theta, l in zip(thetas, indices)]
-    A, B, C, _ = _observer_form(parts, [divisors], indices, m)
+    A, B, C, _ = observer_form_matrices(parts, [divisors], indices, m)
     return wc * A[0], wc * B[0], C[0], thetas
 
 
@@ -201,6 +232,6 @@ def simulate_stamped(A: np.ndarray, B: np.ndarray, C: np.ndarray, record: Stampe
             basis = np.concatenate([free, np.broadcast_to(np.eye(y.shape[1]), (t.size,) + (y.shape[1],) * 2)], axis=2)
             fitted = np.linalg.lstsq(basis[:rows].reshape(-1, basis.shape[2]), (y - forced)[:rows].ravel(),
                                      rcond=None)[0]
-            forced = forced + free @ fitted[:n]
+            forced = forced + free @ fitted[:n] + fitted[n:]
         out.append(forced)
     return out

@@ -36,9 +36,12 @@ PER_DECADE = 2
 # The slowest cutoff: this many radians over the longest segment (a filter slower
 # than that has not settled within the record).
 SLOWEST_RADIANS = 8.0 * np.pi
-# The fastest cutoff, as a share of the Nyquist frequency pi / T of the median step:
-# the discrete grid's top (docs/method.md §5).
-FASTEST_SHARE = 0.356
+# The fastest cutoff, as a share of the Nyquist frequency pi / T of the median step.
+# The outputs are taken as linear between samples, and the current sample enters its
+# own regressors through that interpolation by a weight that grows with wc T: 0.15 of
+# the fastest regressor's steady gain here, 0.44 at the discrete grid's top 0.356 pi
+# (docs/continuous.md §2).
+FASTEST_SHARE = 0.1
 
 
 def unit_roots(zeta: float, indices: Indices, s: float) -> np.ndarray:

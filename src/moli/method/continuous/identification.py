@@ -24,6 +24,11 @@ __all__ = ["ContinuousResult", "identify_continuous"]
 # What the discrete pipeline adds and the continuous one does not (docs/continuous.md §7).
 NOT_CARRIED = ("feedthrough", "refinement", "noise model", "per-output filters", "delays",
                "trend removal in J")
+# The options of those steps (and of the discrete search): in continuous time they must
+# keep their defaults, so that none is silently ignored.
+DISCRETE_ONLY = ("filter_grid", "iterations", "seed", "output_filters", "feedthrough", "max_radius",
+                 "criterion_x0", "trend_degree", "refine", "refine_iterations", "refine_ridge", "x0",
+                 "noise_model", "regularization", "delays", "search_samples")
 
 
 @dataclass
@@ -42,6 +47,9 @@ class ContinuousResult:
     seconds : float
     estimation, validation : IOData
         The records as the search used them (centred on the estimation means).
+    covariance_note : str or None
+        Why the model carries no covariance (a rank-deficient least squares, as on
+        noise-free data); None when it does.
     """
 
     model: ContinuousModel
@@ -52,6 +60,7 @@ class ContinuousResult:
     seconds: float
     estimation: IOData = field(repr=False)
     validation: IOData = field(repr=False)
+    covariance_note: str | None = None
 
     @property
     def selected(self) -> ContinuousStep:
@@ -80,6 +89,8 @@ class ContinuousResult:
             mark = "*" if k == self.selected_index else " "
             lines.append(f"{mark} {st.order:5d}  {str(list(st.indices)):12s} {st.J:8.4f}  {st.mean_vaf:8.2f}")
         lines += model.pole_table()
+        if self.covariance_note is not None:
+            lines.append(f"no covariance, so no bands: {self.covariance_note}")
         lines.append("not in continuous time: " + ", ".join(NOT_CARRIED))
         return "\n".join(lines)
 
@@ -91,6 +102,13 @@ def _check(opts: IdentifyOptions) -> None:
     if opts.tuning != "grid":
         raise OptionError(f"IdentifyOptions.tuning={opts.tuning!r} is discrete only: continuous time "
                           "tunes by the grid and its barycenter ('grid')")
+    defaults = IdentifyOptions()
+    changed = [name for name in DISCRETE_ONLY if getattr(opts, name) != getattr(defaults, name)]
+    if changed:
+        raise OptionError(
+            "these options do not apply in continuous time (docs/continuous.md §7): "
+            + ", ".join(f"{name}={getattr(opts, name)!r}" for name in changed)
+            + "; leave them at their defaults")
 
 
 def identify_continuous(estimation: IOData, validation: IOData, source: str, opts: IdentifyOptions,
@@ -142,7 +160,10 @@ def identify_continuous(estimation: IOData, validation: IOData, source: str, opt
         warnings.warn(
             f"the selected order {step.order} is the end of the path (nmax = {end}): a higher order "
             "may fit better; raise nmax to look", OrderBoundWarning, stacklevel=3)
-    factor = covariance_factor(fitted, step.eta, step.indices, opts.s, step.thetas, opts.input_hold == "foh")
-    model = replace(step.model, cov_factor=factor)
+    try:
+        model, note = replace(step.model, cov_factor=covariance_factor(
+            fitted, step.eta, step.indices, opts.s, step.thetas, opts.input_hold == "foh")), None
+    except DataError as exc:
+        model, note = step.model, str(exc)
     return ContinuousResult(model, path, chosen, opts, source, time.perf_counter() - start,
-                            estimation, validation)
+                            estimation, validation, note)

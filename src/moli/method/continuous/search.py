@@ -98,8 +98,8 @@ class ContinuousSearch:
 
     def feasible(self, indices: Indices) -> bool:
         """Whether the estimation rows determine every output's parameters."""
-        p, m, S = self.estimation.p, self.estimation.m, len(self.estimation.times)
-        needed = max((p + m + 1 + S) * l + j for j, l in enumerate(indices)) + 1
+        p, m, S = self.estimation.p, self.estimation.m, self.estimation.with_rows(max(indices))
+        needed = max((p + m + S) * l + j + 1 for j, l in enumerate(indices)) + 1
         return self.estimation.rows(max(indices)) >= needed
 
     def factor(self, wc: float, zeta: float, indices: Indices) -> np.ndarray:
