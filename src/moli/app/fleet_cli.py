@@ -20,7 +20,7 @@ from ..data.atomic_files import check_output_folder
 from ..data.display import console_text
 from ..data.files import read_data
 from ..errors import DataError, MoliError, OptionError
-from ..method.fleet import FleetEntry, identify_many
+from ..fleets.records import FleetEntry, identify_many
 from ..method.identification import IdentificationResult
 from ..method.options import PRESETS, IdentifyOptions
 from ..models.storage import load_model
