@@ -37,7 +37,7 @@ from .figures import measured_vs_simulated, save_figure
 from .fleet_cli import fleet_commands
 from .fleet_report import SCORES
 from .outputs import REPORT_FILE, refuse_overwrite, run_folder
-from .progress import READING_SHOWN_AFTER, PathProgress, Phases
+from .progress import READING_SHOWN_AFTER, Phases, search_progress
 from .reading import RunWarnings, names, read_records, reading_options
 from .continuous_fit import fit_continuous
 from .report import write_report
@@ -108,18 +108,9 @@ def _identify(data: IOData, fraction: float, options: IdentifyOptions, noted: Ru
     if not 0.0 < fraction < 1.0:
         raise DataError(f"--validation must be a fraction in (0, 1), got {fraction}")
     estimation, validation = data.split(1.0 - fraction)
-    progress = PathProgress(max(options.path_end(data.p) - data.p + 1, 1))
-
-    def after_path(name: str) -> None:
-        progress.close()        # the full bar stays above the phases that follow it
-        phases(name)
-
-    with warnings.catch_warnings(record=True) as caught, Phases() as phases:
+    with warnings.catch_warnings(record=True) as caught, search_progress(options, data.p) as (progress, phase):
         warnings.simplefilter("always")
-        try:
-            result = identify(estimation, validation, options, progress=progress, phase=after_path)
-        finally:
-            progress.close()
+        result = identify(estimation, validation, options, progress=progress, phase=phase)
     noted.add(caught)
     # identify was handed the tail as given validation data: say where it really came from
     result.validation_source = f"held out: last {fraction:.0%} of the record" + (

@@ -8,16 +8,18 @@ so the screen never sits on a full bar while something else runs.
 
 from __future__ import annotations
 
+import contextlib
 import sys
 import threading
 import time
-from typing import Any
+from typing import Any, Callable, Iterator
 
 from tqdm import tqdm
 
-from ..method.search import PathStep
+from ..method.options import IdentifyOptions
+from ..method.search import ScoredStep
 
-__all__ = ["PathProgress", "Phases", "READING_SHOWN_AFTER"]
+__all__ = ["PathProgress", "Phases", "search_progress", "READING_SHOWN_AFTER"]
 
 # Reading is where bad input is found: a read shorter than this shows no line, so a
 # rejected file leaves stderr with its error line alone.
@@ -37,7 +39,7 @@ class PathProgress:
         self.total = total
         self.bar: tqdm | None = None
 
-    def __call__(self, step: PathStep) -> None:
+    def __call__(self, step: ScoredStep) -> None:
         if self.bar is None:
             self.bar = tqdm(total=self.total, desc="structure search", unit="order", file=sys.stderr)
         self.bar.set_postfix_str(f"n={step.order} {list(step.indices)} VAF {step.mean_vaf:.1f}%", refresh=False)
@@ -100,3 +102,20 @@ class Phases:
 
     def __exit__(self, *exc: Any) -> None:
         self.done()
+
+
+@contextlib.contextmanager
+def search_progress(options: IdentifyOptions, p: int) -> Iterator[tuple[PathProgress, Callable[[str], None]]]:
+    """``progress=`` and ``phase=`` for :func:`moli.identify`: the search's bar over the orders
+    of the path, closed when the first phase after the path starts, then a line per phase."""
+    progress = PathProgress(max(options.path_end(p) - p + 1, 1))
+    with Phases() as phases:
+
+        def after_path(name: str) -> None:
+            progress.close()        # the full bar stays above the phases that follow it
+            phases(name)
+
+        try:
+            yield progress, after_path
+        finally:
+            progress.close()

@@ -129,7 +129,7 @@ def identify(
                             f"Ts = {data.Ts:g}; both records must share the sampling period")
         estimation, source = data, "given"
     if opts.time == "continuous":
-        return identify_continuous(estimation, validation, source, opts, progress)
+        return identify_continuous(estimation, validation, source, opts, progress, phase)
     estimation = long_segments(estimation, opts.path_end(data.p), opts.feedthrough is not False)
     if opts.center:
         estimation = estimation.remove_means()

@@ -94,7 +94,8 @@ def _check(opts: IdentifyOptions) -> None:
 
 
 def identify_continuous(estimation: IOData, validation: IOData, source: str, opts: IdentifyOptions,
-                        progress: Callable[[ContinuousStep], None] | None = None) -> ContinuousResult:
+                        progress: Callable[[ContinuousStep], None] | None = None,
+                        phase: Callable[[str], None] | None = None) -> ContinuousResult:
     """The continuous-time pipeline behind :func:`moli.identify` with ``time="continuous"``.
 
     Parameters
@@ -106,6 +107,8 @@ def identify_continuous(estimation: IOData, validation: IOData, source: str, opt
     opts : IdentifyOptions
     progress : callable, optional
         Called with each :class:`ContinuousStep` as the path grows.
+    phase : callable, optional
+        Called with "covariance" as the one phase after the path starts.
 
     Returns
     -------
@@ -142,6 +145,8 @@ def identify_continuous(estimation: IOData, validation: IOData, source: str, opt
         warnings.warn(
             f"the selected order {step.order} is the end of the path (nmax = {end}): a higher order "
             "may fit better; raise nmax to look", OrderBoundWarning, stacklevel=3)
+    if phase:
+        phase("covariance")
     factor = covariance_factor(fitted, step.eta, step.indices, opts.s, step.thetas, opts.input_hold == "foh")
     model = replace(step.model, cov_factor=factor)
     return ContinuousResult(model, path, chosen, opts, source, time.perf_counter() - start,
