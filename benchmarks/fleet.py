@@ -4,7 +4,7 @@
    4-state plant each) identified serially, on 2 local processes (loky) and on a
    2-worker Dask LocalCluster; the models must be the same bit for bit.
 2. A ``LONG``-sample 2x2 record (order 4) reduced over chunks of ``CHUNK`` samples generated on
-   the Dask workers (moli.streaming.distributed.estimate_chunks), against one
+   the Dask workers (moli.fleets.chunk_reduction.estimate_chunks), against one
    ChunkedEstimator fed the same chunks in this process.
 
 Run: OPENBLAS_NUM_THREADS=1 python benchmarks/fleet.py [records] [samples] [long] [chunk]
@@ -20,9 +20,9 @@ from pathlib import Path
 import numpy as np
 
 import moli
+from moli.fleets.chunk_reduction import estimate_chunks
 from moli.models.simulation import simulate_batch
 from moli.streaming.chunked import ChunkedEstimator
-from moli.streaming.distributed import estimate_chunks
 
 RECORDS = int(sys.argv[1]) if len(sys.argv) > 1 else 200
 SAMPLES = int(sys.argv[2]) if len(sys.argv) > 2 else 2_000

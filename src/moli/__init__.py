@@ -3,8 +3,8 @@
 The package follows the pipeline (docs/architecture.md): :mod:`moli.data` (records
 in) → :mod:`moli.method` (structure, filters, least squares, filter tuning, structure
 search) → :mod:`moli.models` (the state-space model) → :mod:`moli.validation` →
-:mod:`moli.streaming`, :mod:`moli.systems`, :mod:`moli.control` and :mod:`moli.app`
-(command line, reports). The names below are the public API (docs/api.md).
+:mod:`moli.streaming`, :mod:`moli.fleets` (many records on many workers),
+:mod:`moli.systems`, :mod:`moli.control` and :mod:`moli.app` (command line, reports). The names below are the public API (docs/api.md).
 
 ``import moli`` loads only numpy and the error classes; each name's module is
 imported the first time the name is used, so the command line and small scripts start
@@ -38,13 +38,12 @@ _HOMES = {
     "estimate": "method", "divisor": "method", "divisors": "method",
     "filter_polynomial": "method", "IdentificationResult": "method", "identify": "method",
     "IdentifyOptions": "method", "PathStep": "method", "estimate_noise_model": "method",
-    "estimate_covariance": "method",
-    "identify_many": "method", "FleetResult": "method", "ContinuousResult": "method",
+    "estimate_covariance": "method", "ContinuousResult": "method",
+    "identify_many": "fleets", "FleetResult": "fleets", "estimate_chunks": "fleets",
     "RecursiveMoli": "streaming", "ChunkedEstimator": "streaming", "FilterBank": "streaming",
-    "estimate_chunks": "streaming",
     "example_data": "systems", "example_plant": "systems", "experiment": "systems",
 }
-_SUBPACKAGES = ("data", "models", "validation", "method", "streaming", "systems", "control", "app")
+_SUBPACKAGES = ("data", "models", "validation", "method", "streaming", "fleets", "systems", "control", "app")
 
 __all__ = [
     "__version__", "MoliError", "DataError", "FilterError", "IllConditionedWarning",
@@ -55,18 +54,19 @@ __all__ = [
 ]
 
 if TYPE_CHECKING:  # what the lazy names are, for type checkers and IDEs
-    from . import app, control, data, method, models, streaming, systems, validation
+    from . import app, control, data, fleets, method, models, streaming, systems, validation
     from .data import (
         DatasetChecksumError, DatasetUnavailableError, IOData, OutlierReport, flag_outliers,
         from_dataframe, list_daisy, load_daisy, merge, random_binary_signal, read_data,
         remove_outliers, to_dataframe,
     )
+    from .fleets import FleetResult, estimate_chunks, identify_many
     from .method import (
-        ContinuousResult, FleetResult, IdentificationResult, IdentifyOptions, PathStep, divisor, divisors, estimate,
-        estimate_covariance, estimate_noise_model, filter_polynomial, identify, identify_many,
+        ContinuousResult, IdentificationResult, IdentifyOptions, PathStep, divisor, divisors, estimate,
+        estimate_covariance, estimate_noise_model, filter_polynomial, identify,
     )
     from .models import ContinuousModel, StateSpaceModel, load_model
-    from .streaming import ChunkedEstimator, FilterBank, RecursiveMoli, estimate_chunks
+    from .streaming import ChunkedEstimator, FilterBank, RecursiveMoli
     from .systems import example_data, example_plant, experiment
     from .validation import (
         Comparison, EmpiricalResponse, FeedbackCheck, ResidualAnalysis, compare, cost_j,

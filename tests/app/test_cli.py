@@ -12,7 +12,7 @@ import pytest
 from click.testing import CliRunner, Result
 
 import moli
-from moli.app import cli
+from moli.app import cli, progress
 from moli.data.files import fingerprint
 
 INPUTS, OUTPUTS = "u1,u2,u3", "y1,y2,y3"
@@ -122,7 +122,7 @@ def test_ctrl_c_keeps_the_best_model_so_far(tmp_path, csv_file, monkeypatch):
         if len(calls) == 2:
             raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli._Progress, "__call__", interrupt_on_second_step)
+    monkeypatch.setattr(progress.PathProgress, "__call__", interrupt_on_second_step)
     model_path = tmp_path / "model.json"
     result = run("fit", str(csv_file), "--inputs", INPUTS, "--outputs", OUTPUTS, "--nmax", "8",
                  "--out", str(model_path))

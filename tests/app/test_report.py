@@ -172,3 +172,23 @@ def test_report_has_the_residual_analysis_with_one_verdict_per_output(written):
     verdicts = re.findall(r"<li>(y\d): residuals", section)
     assert verdicts == ["y1", "y2", "y3"]
     assert "1-25" in section  # 200 validation samples: the default 25 lags need only 104
+
+
+def test_a_long_records_spectral_estimate_is_drawn_at_a_log_spaced_subset_of_its_frequencies():
+    data = moli.example_data(N=20_000, seed=1)          # 1024 estimated frequencies
+    model = moli.example_plant()
+    estimate = moli.empirical_frequency_response(data)
+    assert len(estimate.omega) > figures.MAX_DRAWN_FREQUENCIES
+    omega, gain = figures.bode_magnitude(model, estimate).axes[0].lines[1].get_data()
+    assert len(omega) <= figures.MAX_DRAWN_FREQUENCIES
+    # the low decades, sparser than the log grid, keep every frequency; the top one is thinned
+    np.testing.assert_array_equal(omega[:20], estimate.omega[:20])
+    assert np.sum(omega > 0.1 * omega[-1]) < np.sum(estimate.omega > 0.1 * omega[-1]) / 2
+    # every dot is a frequency of the estimate with its own gain, the lowest and highest kept
+    at = np.searchsorted(estimate.omega, omega)
+    np.testing.assert_array_equal(estimate.omega[at], omega)
+    np.testing.assert_array_equal(np.abs(estimate.response[at, 0, 0]), gain)
+    assert omega[0] == estimate.omega[0] and omega[-1] == estimate.omega[-1]
+    # the same dots whether the figure is given the record or its estimate
+    from_record = figures.bode_magnitude(model, data).axes[0].lines[1].get_data()[0]
+    np.testing.assert_array_equal(from_record, omega)

@@ -37,6 +37,7 @@ from .figures import measured_vs_simulated, save_figure
 from .fleet_cli import fleet_commands
 from .fleet_report import SCORES
 from .outputs import REPORT_FILE, refuse_overwrite, run_folder
+from .progress import READING_SHOWN_AFTER, Phases, search_progress
 from .reading import RunWarnings, names, read_records, reading_options
 from .continuous_fit import fit_continuous
 from .report import write_report
@@ -78,24 +79,6 @@ class _Group(click.Group):
             ctx.exit(INTERRUPTED)
 
 
-class _Progress:
-    """Progress bar over the orders of the greedy path.
-
-    The bar appears with the first fitted order, so input rejected before the search
-    starts leaves stderr with the error line alone.
-    """
-
-    def __init__(self, total: int) -> None:
-        self.total = total
-        self.bar: tqdm | None = None
-
-    def __call__(self, step: PathStep) -> None:
-        if self.bar is None:
-            self.bar = tqdm(total=self.total, desc="structure search", unit="order", file=sys.stderr)
-        self.bar.set_postfix_str(f"n={step.order} {list(step.indices)} VAF {step.mean_vaf:.1f}%", refresh=False)
-        self.bar.update()
-
-
 def options_from_flags(options_file: Path | None, preset: str | None, **flags: Any) -> IdentifyOptions:
     """The one place where command-line flags become :class:`IdentifyOptions`.
 
@@ -125,14 +108,9 @@ def _identify(data: IOData, fraction: float, options: IdentifyOptions, noted: Ru
     if not 0.0 < fraction < 1.0:
         raise DataError(f"--validation must be a fraction in (0, 1), got {fraction}")
     estimation, validation = data.split(1.0 - fraction)
-    progress = _Progress(max(options.path_end(data.p) - data.p + 1, 1))
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings(record=True) as caught, search_progress(options, data.p) as (progress, phase):
         warnings.simplefilter("always")
-        try:
-            result = identify(estimation, validation, options, progress=progress)
-        finally:
-            if progress.bar is not None:
-                progress.bar.close()
+        result = identify(estimation, validation, options, progress=progress, phase=phase)
     noted.add(caught)
     # identify was handed the tail as given validation data: say where it really came from
     result.validation_source = f"held out: last {fraction:.0%} of the record" + (
@@ -178,8 +156,10 @@ def _finish(result: IdentificationResult, model_path: Path, report_dir: Path | N
     click.echo(f"model written to {model_path}")
     if report_dir is not None:
         tried = _all_lists(result) if all_lists else []
-        report = write_report(result, report_dir, tried, data_file=data_files[0] if len(data_files) == 1 else None,
-                              warnings=noted.messages)
+        with Phases() as phases:
+            phases("report")
+            report = write_report(result, report_dir, tried, data_file=data_files[0] if len(data_files) == 1 else None,
+                                  warnings=noted.messages)
         click.echo(f"report written to {report}")
 
 
@@ -289,12 +269,15 @@ def fit(data_files: tuple[Path, ...], inputs: str | None, outputs: str | None, d
     read = [*data_files, *([options_file] if options_file is not None else [])]
     model_path, report_dir = _outputs(model_path, report_dir, run_folder("fit", stems), force, read)
     noted = RunWarnings()
-    if daisy is not None:
-        data = load_daisy(daisy, data_dir)
-        source, data_files = f"DaISy {daisy}", (daisy_path(daisy, data_dir),)
-    else:
-        data = read_records(data_files, names(inputs), names(outputs), ts, reading, noted)
-        source = ", ".join(map(str, data_files))
+    with Phases() as phases:
+        phases.shown_after(f"reading {daisy if daisy is not None else ', '.join(map(str, data_files))}",
+                           READING_SHOWN_AFTER)
+        if daisy is not None:
+            data = load_daisy(daisy, data_dir)
+            source, data_files = f"DaISy {daisy}", (daisy_path(daisy, data_dir),)
+        else:
+            data = read_records(data_files, names(inputs), names(outputs), ts, reading, noted)
+            source = ", ".join(map(str, data_files))
     click.echo(f"{source}: {data}" + (f" (the {len(data_files)} files merged)" if len(data_files) > 1 else ""))
     removed = flag_outliers(data).counts if outliers == "remove" else {}
     if removed:

@@ -2,18 +2,17 @@
 
 from __future__ import annotations
 
-import sys
 import warnings
 from pathlib import Path
 
 import click
-from tqdm import tqdm
 
 from ..data.iodata import IOData
 from ..errors import DataError
 from ..method.identification import identify
 from ..method.options import IdentifyOptions
 from .continuous_report import write_continuous_report
+from .progress import Phases, search_progress
 from .reading import RunWarnings
 
 __all__ = ["fit_continuous"]
@@ -25,19 +24,9 @@ def fit_continuous(data: IOData, fraction: float, options: IdentifyOptions, note
     if not 0.0 < fraction < 1.0:
         raise DataError(f"--validation must be a fraction in (0, 1), got {fraction}")
     estimation, validation = data.split(1.0 - fraction)
-    bar = tqdm(total=max(options.path_end(data.p) - data.p + 1, 1), desc="structure search",
-               unit="order", file=sys.stderr)
-
-    def progress(step) -> None:
-        bar.set_postfix_str(f"n={step.order} {list(step.indices)} VAF {step.mean_vaf:.1f}%", refresh=False)
-        bar.update()
-
-    with warnings.catch_warnings(record=True) as caught:
+    with warnings.catch_warnings(record=True) as caught, search_progress(options, data.p) as (progress, phase):
         warnings.simplefilter("always")
-        try:
-            result = identify(estimation, validation, options, progress=progress)
-        finally:
-            bar.close()
+        result = identify(estimation, validation, options, progress=progress, phase=phase)
     noted.add(caught)
     result.validation_source = f"held out: last {fraction:.0%} of the record"
     click.echo(result.summary())
@@ -45,4 +34,7 @@ def fit_continuous(data: IOData, fraction: float, options: IdentifyOptions, note
     result.model.save(model_path)
     click.echo(f"model written to {model_path}")
     if report_dir is not None:
-        click.echo(f"report written to {write_continuous_report(result, report_dir, data_file)}")
+        with Phases() as phases:
+            phases("report")
+            report = write_continuous_report(result, report_dir, data_file)
+        click.echo(f"report written to {report}")

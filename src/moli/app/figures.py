@@ -20,7 +20,7 @@ from ..data.iodata import IOData
 from ..models.statespace import StateSpaceModel
 from ..method.search import PathStep
 from ..validation.comparison import Comparison
-from ..validation.frequency import empirical_frequency_response
+from ..validation.frequency import EmpiricalResponse, empirical_frequency_response
 
 __all__ = [
     "singular_values",
@@ -40,6 +40,10 @@ MAX_DRAWN_SAMPLES = 4000
 ENVELOPE_BINS = 1000
 # A long record's figure shows its last samples beside the envelope, each drawn.
 DETAIL_SAMPLES = 500
+# A spectral estimate of a long record has tens of thousands of evenly spaced frequencies,
+# nine in ten of them in the top decade of a log axis: at most this many, spread evenly
+# over the log axis, are drawn as dots (the panel is some 250 pixels wide).
+MAX_DRAWN_FREQUENCIES = 600
 
 
 def new_figure(width: float, height: float) -> Figure:
@@ -104,6 +108,21 @@ def envelope(t: np.ndarray, values: np.ndarray, bins: int = ENVELOPE_BINS) -> tu
     high = np.maximum.reduceat(values, starts)
     edges = np.append(np.asarray(t, dtype=float)[starts], t[-1])
     return edges, np.append(low, low[-1]), np.append(high, high[-1])
+
+
+def _spectral_estimate(data: IOData | EmpiricalResponse | None, nperseg: int | None) -> EmpiricalResponse | None:
+    """The spectral estimate of a record (or the one given), at frequencies spread over a
+    log axis: at most :data:`MAX_DRAWN_FREQUENCIES` of them, each a frequency of the estimate."""
+    if data is None:
+        return None
+    empirical = data if isinstance(data, EmpiricalResponse) else empirical_frequency_response(data, nperseg=nperseg)
+    omega = empirical.omega
+    positive = omega[omega > 0]
+    if len(positive) <= MAX_DRAWN_FREQUENCIES:
+        return empirical
+    grid = np.geomspace(positive[0], positive[-1], MAX_DRAWN_FREQUENCIES)
+    keep = np.unique(np.searchsorted(omega, grid).clip(0, len(omega) - 1))
+    return EmpiricalResponse(omega[keep], empirical.response[keep])
 
 
 def _trace(ax: object, t: np.ndarray, values: np.ndarray, color: str, label: str,
@@ -281,7 +300,7 @@ def step_responses(model: StateSpaceModel, samples: int) -> Figure:
     return fig
 
 
-def bode_magnitude(model: StateSpaceModel, data: IOData | None = None, nperseg: int | None = None,
+def bode_magnitude(model: StateSpaceModel, data: IOData | EmpiricalResponse | None = None, nperseg: int | None = None,
                    points: int = 200) -> Figure:
     """Gain of every input-output pair against frequency (a p-by-m grid), on log axes.
 
@@ -294,10 +313,10 @@ def bode_magnitude(model: StateSpaceModel, data: IOData | None = None, nperseg: 
     Parameters
     ----------
     model : StateSpaceModel
-    data : IOData, optional
-        A record of the same channels (raw or centred).
+    data : IOData or EmpiricalResponse, optional
+        A record of the same channels (raw or centred), or its spectral estimate.
     nperseg : int, optional
-        Welch segment length of the empirical estimate.
+        Welch segment length of the empirical estimate of ``data``.
     points : int, default 200
         Log-spaced frequencies of the model's line.
 
@@ -309,7 +328,7 @@ def bode_magnitude(model: StateSpaceModel, data: IOData | None = None, nperseg: 
     omega = np.logspace(np.log10(nyquist) - DECADES, np.log10(nyquist), points)
     gain = np.abs(model.frequency_response(omega))
     bands = None if model.cov_factor is None else model.magnitude_bands(omega, BAND_CONFIDENCE)
-    empirical = None if data is None else empirical_frequency_response(data, nperseg=nperseg)
+    empirical = _spectral_estimate(data, nperseg)
     fig, axes = channel_grid(model, "|H| to", "frequency (rad per time unit)")
     for i in range(model.p):
         for j in range(model.m):
@@ -328,8 +347,8 @@ def bode_magnitude(model: StateSpaceModel, data: IOData | None = None, nperseg: 
     return fig
 
 
-def singular_values(model: StateSpaceModel, data: IOData | None = None, nperseg: int | None = None,
-                    points: int = 200) -> Figure:
+def singular_values(model: StateSpaceModel, data: IOData | EmpiricalResponse | None = None,
+                    nperseg: int | None = None, points: int = 200) -> Figure:
     """Singular values of the frequency response against frequency: the MIMO gain envelope.
 
     The largest and smallest gain over all input directions at each frequency, from
@@ -339,10 +358,10 @@ def singular_values(model: StateSpaceModel, data: IOData | None = None, nperseg:
     Parameters
     ----------
     model : StateSpaceModel
-    data : IOData, optional
-        A record of the same channels (raw or centred).
+    data : IOData or EmpiricalResponse, optional
+        A record of the same channels (raw or centred), or its spectral estimate.
     nperseg : int, optional
-        Welch segment length of the empirical estimate.
+        Welch segment length of the empirical estimate of ``data``.
     points : int, default 200
 
     Returns
@@ -356,8 +375,8 @@ def singular_values(model: StateSpaceModel, data: IOData | None = None, nperseg:
     ax = fig.subplots()
     ax.loglog(omega, sv, color="C0", linewidth=1.2)
     ax.lines[0].set_label("model")
-    if data is not None:
-        empirical = empirical_frequency_response(data, nperseg=nperseg)
+    empirical = _spectral_estimate(data, nperseg)
+    if empirical is not None:
         keep = empirical.omega > 0
         points_sv = np.linalg.svd(empirical.response[keep], compute_uv=False)
         ax.loglog(empirical.omega[keep], points_sv, ".", color="0.4", markersize=3)

@@ -20,13 +20,14 @@ from ..data.atomic_files import check_output_folder
 from ..data.display import console_text
 from ..data.files import read_data
 from ..errors import DataError, MoliError, OptionError
-from ..method.fleet import FleetEntry, identify_many
+from ..fleets.records import FleetEntry, identify_many
 from ..method.identification import IdentificationResult
 from ..method.options import PRESETS, IdentifyOptions
 from ..models.storage import load_model
 from ..validation.comparison import X0_CHOICES, compare
 from .fleet_report import SCORES, write_summary
 from .outputs import refuse_overwrite
+from .progress import Phases
 from .reading import names
 
 __all__ = ["fleet_commands", "match_files"]
@@ -159,19 +160,21 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
             if executor is not None:
                 executor.close()
         out_dir.mkdir(parents=True, exist_ok=True)
-        rows = [{**_saved(entry, sources[entry.name], out_dir), "source": str(sources[entry.name]),
-                 "warnings": "; ".join(entry.warnings) or None,
-                 "validation_N": None if entry.result is None else entry.result.validation.N}
-                for entry in fleet]
+        with Phases() as phases:
+            phases("saving the models and the summary")
+            rows = [{**_saved(entry, sources[entry.name], out_dir), "source": str(sources[entry.name]),
+                     "warnings": "; ".join(entry.warnings) or None,
+                     "validation_N": None if entry.result is None else entry.result.validation.N}
+                    for entry in fleet]
+            csv_path, html_path = write_summary(
+                rows, FIT_COLUMNS, out_dir, "summary", "moli fit-many", "fit",
+                notes=[f"fit and vaf: mean over the outputs of the selected model's NRMSE fit and VAF "
+                       f"on the held-out tail, percent; validation_N: the samples of that tail, which "
+                       f"chose the order; warnings: every warning the record raised; run on "
+                       f"{fleet.backend} in {fleet.seconds:.1f} s",
+                       SCORES],
+            )
         failed = [row for row in rows if row["error"]]
-        csv_path, html_path = write_summary(
-            rows, FIT_COLUMNS, out_dir, "summary", "moli fit-many", "fit",
-            notes=[f"fit and vaf: mean over the outputs of the selected model's NRMSE fit and VAF "
-                   f"on the held-out tail, percent; validation_N: the samples of that tail, which chose "
-                   f"the order; warnings: every warning the record raised; run on {fleet.backend} in "
-                   f"{fleet.seconds:.1f} s",
-                   SCORES],
-        )
         click.echo(f"{len(fleet)} records on {fleet.backend} in {fleet.seconds:.1f} s: "
                    f"{len(fleet) - len(failed)} models in {out_dir}, {len(failed)} failed")
         for row in failed:

@@ -3,11 +3,13 @@ and the warnings a run raises, printed once each and kept for the report."""
 
 from __future__ import annotations
 
+import sys
 import warnings
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
 import click
+from tqdm import tqdm
 
 from ..data.display import console_text
 from ..data.files import read_data
@@ -38,7 +40,8 @@ class RunWarnings:
         for message in (str(w.message) for w in caught):
             if message not in self.messages:
                 self.messages.append(message)
-                click.echo(f"moli: warning: {console_text(message)}", err=True)
+                # through tqdm: a phase's line open on stderr is redrawn below the warning
+                tqdm.write(f"moli: warning: {console_text(message)}", file=sys.stderr)
 
 
 def reading_options(command: Callable[..., Any]) -> Callable[..., Any]:

@@ -25,7 +25,7 @@ from ..errors import DataError
 from ..method.identification import IdentificationResult
 from ..method.search import PathStep
 from ..validation.comparison import compare
-from ..validation.frequency import empirical_frequency_response
+from ..validation.frequency import EmpiricalResponse, empirical_frequency_response
 from ..validation.residuals import SAMPLES_PER_LAG, ResidualAnalysis, residual_analysis
 
 __all__ = ["path_table", "validation_caption", "warnings_section", "write_report"]
@@ -194,13 +194,12 @@ input at lags 0-{analysis.lags}. A test fails below p = {1 - analysis.confidence
 """
 
 
-def _spectrum_record(record: IOData) -> IOData | None:
-    """``record`` when it is long enough for the figures' spectral estimate, else None."""
+def _spectrum(record: IOData) -> EmpiricalResponse | None:
+    """The figures' spectral estimate of ``record``; None when it is too short for one."""
     try:
-        empirical_frequency_response(record)
+        return empirical_frequency_response(record)
     except DataError:
         return None
-    return record
 
 
 def write_report(
@@ -252,7 +251,7 @@ def write_report(
     comparison = compare(model, validation, result.options.x0)
     # spectra and residual correlations run through time: on the longest stretch without a gap
     continuous = longest_segment(validation)
-    spectrum = _spectrum_record(continuous)
+    spectrum = _spectrum(continuous)
     no_spectrum = "" if spectrum is not None else (f" (no spectral estimate: the longest validation stretch, "
                                                    f"{continuous.N} samples, is too short for one)")
     bands = (f", shaded: pointwise {figures.BAND_CONFIDENCE:.0%} confidence band of the estimate "

@@ -4,7 +4,7 @@
 :class:`RecordChunk` per stored piece, in time order. A chunk is a small picklable
 recipe; calling it reads that piece's samples, so a chunk can be sent to the machine
 that holds (or can reach) the file and read there
-(:func:`moli.streaming.distributed.estimate_chunks`).
+(:func:`moli.fleets.chunk_reduction.estimate_chunks`).
 
 Layouts: a Parquet file with one column per channel, read one row group at a time
 (write it with ``row_group_size``); a Zarr group (a directory) with one 1-D array

@@ -9,14 +9,12 @@ of observability indices), :mod:`.filters` (the filter α and its divisors),
 :mod:`.observer_form`), :mod:`.noise_model`
 (Kalman gain from the residuals), :mod:`.covariance` and :mod:`.uncertainty` (the
 covariance of the parameters and of the matrices), :mod:`.options` and :mod:`.identification` (the
-one-call entry point); :mod:`.fleet` identifies many records
-at once on the backends of :mod:`.backends`. :mod:`.continuous` is the same method in
-continuous time (docs/continuous.md).
+one-call entry point). :mod:`.continuous` is the same method in continuous time
+(docs/continuous.md). Many records at once: :mod:`moli.fleets`.
 """
 
 from .continuous import ContinuousResult, ContinuousStep
 from .estimation import estimate, realize
-from .fleet import FleetEntry, FleetResult, identify_many
 from .filters import divisor, divisors, filter_polynomial
 from .identification import IdentificationResult, identify
 from .noise_model import estimate_noise_model
@@ -30,5 +28,5 @@ __all__ = [
     "estimate", "realize", "divisor", "divisors", "filter_polynomial", "IdentificationResult",
     "identify", "IdentifyOptions", "estimate_noise_model", "RefineResult", "refine", "refine_each", "PathStep", "exhaustive",
     "TuningResult", "default_omega", "tune_filter", "estimate_covariance",
-    "FleetEntry", "FleetResult", "identify_many", "ContinuousResult", "ContinuousStep",
+    "ContinuousResult", "ContinuousStep",
 ]

@@ -49,6 +49,7 @@ def identify(
     options: IdentifyOptions | None = None,
     *,
     progress: Callable[[PathStep], None] | None = None,
+    phase: Callable[[str], None] | None = None,
     **overrides: Any,
 ) -> IdentificationResult | ContinuousResult:
     """Identify a multivariable state-space model with MOLI-ZOFT.
@@ -65,6 +66,10 @@ def identify(
         chosen on the generalization benchmark (docs/accuracy.md).
     progress : callable, optional
         Called with each :class:`PathStep` as the path grows.
+    phase : callable, optional
+        Called with the name of each phase after the path as it starts ("refinement",
+        "covariance", "noise model", ...: the names ``IdentificationResult.skipped`` uses),
+        so that a caller can show the work that follows the path.
     **overrides
         Fields of :class:`IdentifyOptions` changed for this call:
         ``identify(est, val, nmax=12)`` is ``identify(est, val, IdentifyOptions(nmax=12))``.
@@ -102,6 +107,8 @@ def identify(
         raise DataError(f"data must be an IOData, got {type(data).__name__}")
     if progress is not None and not callable(progress):
         raise OptionError(f"progress must be a callable taking a PathStep, got {type(progress).__name__}")
+    if phase is not None and not callable(phase):
+        raise OptionError(f"phase must be a callable taking a phase's name, got {type(phase).__name__}")
     check_scales(data, validation)
     if validation is None:
         if data.N * HOLDOUT_FRACTION < 1:
@@ -129,7 +136,7 @@ def identify(
     if nmax < p:
         raise OptionError(f"IdentifyOptions.nmax must be at least the number of outputs, {p}; got {nmax}")
     if opts.time == "continuous":
-        return identify_continuous(estimation, validation, source, opts, progress)
+        return identify_continuous(estimation, validation, source, opts, progress, phase)
     if opts.input_hold != "zoh":
         raise OptionError(f"IdentifyOptions.input_hold={opts.input_hold!r} applies in continuous time only "
                           "(time='continuous'): a sampled model takes each input as it is sampled")
@@ -196,16 +203,22 @@ def identify(
                 done[id(step.model), ridge] = replace(step, model=model, vaf=vaf, seconds=seconds)
         return [done[id(step.model), r] for r in chosen]
 
+    def begin(name: str) -> str:
+        if phase:
+            phase(name)
+        return name
+
     unrefined = list(path)
     # Ctrl-C after the path keeps the best complete model so far (moli.method.interruption)
     phases = post_path_phases(opts, long_record=searched is not fitted)
     stage, skipped = phases[0], ()
     try:
         if opts.refine == "path" and not interrupted:
+            stage = begin("refinement of the path")
             path[:] = [refined(st)[0] for st in path]
         selected = _fixed_order(path, opts.order, interrupted)
         if selected is None and opts.order_rule == "refined" and not interrupted:
-            stage = "order rule's refinements"
+            stage = begin("order rule's refinements")
             selected, chosen = select_order_refined(path, lambda i: [path[i], *siblings(search, path, i)],
                                                     refined, scored, opts.x0, opts.order_errors)
             path[selected] = unrefined[selected] = chosen
@@ -218,18 +231,18 @@ def identify(
     if not skipped:
         try:
             if searched is not fitted:      # docs/method.md §15: the selected list on the whole record
-                stage = "re-estimation on the whole record"
+                stage = begin("re-estimation on the whole record")
                 path[selected] = reestimate(unrefined[selected], fitted, scored, opts.s, opts.feedthrough, opts.x0,
                                             opts.regularization)
                 path[selected].model.info["search_samples"] = searched.N
                 if opts.refine == "path":
-                    stage = "refinement"
+                    stage = begin("refinement")
                     path[selected] = refined(path[selected])[0]
             if opts.refine == "selected":
-                stage = "refinement"
+                stage = begin("refinement")
                 path[selected] = refined(path[selected])[0]
             elif opts.refine == "guarded":
-                stage = "refinement"
+                stage = begin("refinement")
                 # each ridge from the unrefined model: the best on validation stays; then the free
                 # refinement of each other list the greedy step compared at this order, where it
                 # is better by more than a paired standard error (docs/method.md §12)
@@ -243,12 +256,12 @@ def identify(
             # covariance (of the problem that gave the model: a refined one's on the search window, the
             # least squares' on the whole record) and noise model (search window) of the delay-free
             # model, on the shifted record
-            stage = "covariance"
+            stage = begin("covariance")
             kept = path[selected].model
             path[selected] = replace(path[selected], model=_attached(
                 estimate_covariance, "covariance", kept, searched if is_refined(kept) else fitted))
             if opts.noise_model:
-                stage = "noise model"
+                stage = begin("noise model")
                 path[selected] = replace(path[selected], model=_attached(estimate_noise_model, "noise_model",
                                                                          path[selected].model, searched))
         except KeyboardInterrupt:

@@ -1,8 +1,10 @@
-"""Estimation sample by sample or chunk by chunk, in constant memory (docs/recursive.md)."""
+"""Estimation sample by sample or chunk by chunk, in constant memory (docs/recursive.md).
+
+A long record reduced on Dask workers: :func:`moli.fleets.estimate_chunks`.
+"""
 
 from .chunked import ChunkedEstimator
-from .distributed import estimate_chunks
 from .filter_bank import FilterBank
 from .recursive import RecursiveMoli
 
-__all__ = ["ChunkedEstimator", "FilterBank", "RecursiveMoli", "estimate_chunks"]
+__all__ = ["ChunkedEstimator", "FilterBank", "RecursiveMoli"]

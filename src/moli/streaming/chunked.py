@@ -13,7 +13,7 @@ Parts of one record can also be estimated apart and combined: :meth:`ChunkedEsti
 starts an estimator mid-record from given filter states, :meth:`ChunkedEstimator.state_map`
 says how a chunk moves those states, and :meth:`ChunkedEstimator.merge` joins the factors
 of consecutive parts (the R of ``[R_a; R_b]`` is the R of both parts' rows).
-:func:`moli.streaming.distributed.estimate_chunks` builds on them.
+:func:`moli.fleets.chunk_reduction.estimate_chunks` builds on them.
 """
 
 from __future__ import annotations

@@ -112,7 +112,8 @@ def _check(opts: IdentifyOptions) -> None:
 
 
 def identify_continuous(estimation: IOData, validation: IOData, source: str, opts: IdentifyOptions,
-                        progress: Callable[[ContinuousStep], None] | None = None) -> ContinuousResult:
+                        progress: Callable[[ContinuousStep], None] | None = None,
+                        phase: Callable[[str], None] | None = None) -> ContinuousResult:
     """The continuous-time pipeline behind :func:`moli.identify` with ``time="continuous"``.
 
     Parameters
@@ -124,6 +125,8 @@ def identify_continuous(estimation: IOData, validation: IOData, source: str, opt
     opts : IdentifyOptions
     progress : callable, optional
         Called with each :class:`ContinuousStep` as the path grows.
+    phase : callable, optional
+        Called with "covariance" as the one phase after the path starts.
 
     Returns
     -------
@@ -160,6 +163,8 @@ def identify_continuous(estimation: IOData, validation: IOData, source: str, opt
         warnings.warn(
             f"the selected order {step.order} is the end of the path (nmax = {end}): a higher order "
             "may fit better; raise nmax to look", OrderBoundWarning, stacklevel=3)
+    if phase:
+        phase("covariance")
     try:
         model, note = replace(step.model, cov_factor=covariance_factor(
             fitted, step.eta, step.indices, opts.s, step.thetas, opts.input_hold == "foh")), None

@@ -13,8 +13,8 @@ from click.testing import CliRunner
 
 import moli
 from moli.app import cli
-from moli.method import fleet as fleet_module
-from moli.method.fleet import identify_many
+from moli.fleets import records as fleet_module
+from moli.fleets.records import identify_many
 
 OPTIONS = moli.IdentifyOptions(nmax=4)
 # In a worker this module is imported afresh, so this is the unpatched function.

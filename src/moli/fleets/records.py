@@ -2,7 +2,7 @@
 
 :func:`identify_many` runs :func:`~moli.method.identification.identify` on every record
 of a fleet (one record per loop, unit or test run) on local processes, on a Dask
-cluster or on any ``concurrent.futures`` executor (:mod:`moli.method.backends`). One
+cluster or on any ``concurrent.futures`` executor (:mod:`moli.fleets.backends`). One
 record's failure is kept under its name and never stops the others. Nothing random
 is shared: each identification is a deterministic function of its record and its
 options (``IdentifyOptions.seed`` seeds the randomized filter search), and each runs
@@ -26,12 +26,12 @@ import numpy as np
 from ..data.files import read_data
 from ..data.iodata import IOData
 from ..errors import DataError, OptionError
+from ..method.identification import IdentificationResult, identify
+from ..method.options import IdentifyOptions
+from ..method.warning_capture import thread_warnings
 from ..models.statespace import StateSpaceModel
 from ..validation.comparison import compare
 from .backends import NO_WORKER_TIMEOUT, run_calls
-from .identification import IdentificationResult, identify
-from .options import IdentifyOptions
-from .warning_capture import thread_warnings
 
 __all__ = ["FleetEntry", "FleetResult", "identify_many"]
 

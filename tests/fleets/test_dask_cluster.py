@@ -14,8 +14,8 @@ import pytest
 import moli
 from moli.data.chunks import list_chunks
 from moli.errors import DataError
+from moli.fleets.chunk_reduction import estimate_chunks
 from moli.streaming.chunked import ChunkedEstimator
-from moli.streaming.distributed import estimate_chunks
 
 from systems_util import plant_record
 

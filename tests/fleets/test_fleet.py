@@ -1,6 +1,6 @@
 """identify_many: every record identified as identify would, in order, failures kept apart.
 
-The Dask LocalCluster runs are in tests/test_distributed.py.
+The Dask LocalCluster runs are in tests/fleets/test_dask_cluster.py.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import pytest
 
 import moli
 from moli.errors import DataError, OptionError
-from moli.method.fleet import FleetEntry, FleetResult, identify_many
+from moli.fleets.records import FleetEntry, FleetResult, identify_many
 
 OPTIONS = moli.IdentifyOptions(nmax=4)  # the path 3, 4: a real search, fast
 NAMES = (("u1", "u2", "u3"), ("y1", "y2", "y3"))

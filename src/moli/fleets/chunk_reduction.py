@@ -31,8 +31,8 @@ from typing import Any, Callable, Sequence
 import numpy as np
 
 from ..errors import DataError, OptionError
-from ..method.backends import dask_completed
-from .chunked import ChunkedEstimator
+from ..streaming.chunked import ChunkedEstimator
+from .backends import dask_completed
 
 __all__ = ["estimate_chunks"]
 
@@ -90,7 +90,7 @@ def estimate_chunks(
     DataError
         ``chunks`` is empty or holds something that is not callable; a chunk whose
         samples do not match ``p`` and ``m``.
-    moli.method.backends.NoWorkersError
+    moli.fleets.backends.NoWorkersError
         The cluster had no worker for ``NO_WORKER_TIMEOUT`` seconds (Dask itself
         would wait forever).
 

@@ -12,8 +12,8 @@ from hypothesis import given, settings, strategies as st
 
 import moli
 from moli.errors import DataError, OptionError, StructureError
+from moli.fleets.chunk_reduction import estimate_chunks
 from moli.streaming.chunked import ChunkedEstimator
-from moli.streaming.distributed import estimate_chunks
 
 from systems_util import plant_record
 
