@@ -10,7 +10,6 @@ from __future__ import annotations
 import json
 import math
 import sys
-import warnings
 from pathlib import Path
 from typing import Any
 
@@ -26,7 +25,7 @@ from ..data.files import file_sha256, fingerprint
 from ..data.iodata import IOData
 from ..data.outliers import flag_outliers, remove_outliers
 from ..errors import DataError, MoliError, OptionError
-from ..method.identification import IdentificationResult, identify
+from ..method.identification import IdentificationResult
 from ..method.options import PRESETS, IdentifyOptions
 from ..method.search import PathStep, StructureSearch, exhaustive
 from ..models.statespace import StateSpaceModel
@@ -37,9 +36,10 @@ from .figures import measured_vs_simulated, save_figure
 from .fleet_cli import fleet_commands
 from .fleet_report import SCORES
 from .outputs import REPORT_FILE, refuse_overwrite, run_folder
-from .progress import READING_SHOWN_AFTER, Phases, search_progress
+from .progress import READING_SHOWN_AFTER, Phases
 from .reading import RunWarnings, names, read_records, reading_options
 from .continuous_fit import fit_continuous
+from .search_run import held_out_search
 from .report import write_report
 
 __all__ = ["cli", "main", "describe", "options_from_flags"]
@@ -105,16 +105,8 @@ def options_from_flags(options_file: Path | None, preset: str | None, **flags: A
 def _identify(data: IOData, fraction: float, options: IdentifyOptions, noted: RunWarnings,
               last_run: str | None = None) -> IdentificationResult:
     """Split off the validation tail and run the greedy search with a progress bar."""
-    if not 0.0 < fraction < 1.0:
-        raise DataError(f"--validation must be a fraction in (0, 1), got {fraction}")
-    estimation, validation = data.split(1.0 - fraction)
-    with warnings.catch_warnings(record=True) as caught, search_progress(options, data.p) as (progress, phase):
-        warnings.simplefilter("always")
-        result = identify(estimation, validation, options, progress=progress, phase=phase)
-    noted.add(caught)
-    # identify was handed the tail as given validation data: say where it really came from
-    result.validation_source = f"held out: last {fraction:.0%} of the record" + (
-        f", from {last_run}" if last_run else "")
+    result = held_out_search(data, fraction, options, noted, last_run)
+    estimation, validation = data.split(1.0 - fraction)     # the records as read, for the fingerprint
     if result.skipped:
         click.echo(f"moli: interrupted; keeping the model before the {result.skipped[0]} "
                    f"(skipped: {', '.join(result.skipped)})", err=True)
