@@ -22,6 +22,10 @@ times of mean 0.1 s; white output noise at 30 dB per output):
    records for T = 20, 10, 5, 2.5 ms and its log-log slope.
 4. DaISy records with a stated sampling period: first 2/3 estimates, last 1/3 is
    fresh data; both paths simulated over it from the operating point (zero deviation).
+5. The order rule's width, chosen on other seeds (100-109) than parts 1 and 2 report:
+   the order the paired rule selects at 0.5 to 3 standard errors, and the best-VAF rule,
+   on the uniform and the irregular record of each seed (one search each; the path does
+   not depend on the rule).
 
 Output in --out: continuous.json (every per-case figure) and continuous.md (summary).
 """
@@ -50,11 +54,14 @@ from moli.data.daisy import list_daisy  # noqa: E402
 from moli.method.continuous.estimation import StampedRecord, observer_rows  # noqa: E402
 from moli.method.continuous.filters import unit_divisors  # noqa: E402
 from moli.method.identification import HOLDOUT_FRACTION  # noqa: E402
+from moli.method.order_rules import select_by_shares, select_order  # noqa: E402
 
 Case = dict[str, Any]
 METHODS = ("continuous", "continuous_tolerance", "discrete")
 PERIODS = (20e-3, 10e-3, 5e-3, 2.5e-3)
 CONVERGENCE_SEEDS = 3
+ORDER_SEEDS = range(100, 110)          # part 5 chooses on these, parts 1 and 2 report on 0..seeds-1
+ORDER_WIDTHS = (0.5, 1.0, 1.5, 2.0, 3.0)
 SKIPPED_DAISY = ("distill2",)   # three step responses, not an input-output record
 
 
@@ -157,10 +164,18 @@ def daisy_case(name: str) -> Case:
     return case
 
 
+def order_case(seed: int, kind: str) -> Case:
+    """Part 5: the order each rule width selects on one search's path."""
+    record = cc.uniform_record(seed) if kind == "uniform" else cc.irregular_record(seed)
+    path = identify_stamped(record).path
+    orders = {f"z={z:g}": path[select_by_shares(path, lambda i: path[i].errors, z)].order for z in ORDER_WIDTHS}
+    return {"seed": seed, "kind": kind, **orders, "best VAF": path[select_order(path, 0.0)].order}
+
+
 def run_task(task: tuple) -> tuple[str, Case]:
     kind, *args = task
     runner = {"seed": seed_case, "exact": exactness_case, "convergence": convergence_case,
-              "daisy": daisy_case}[kind]
+              "daisy": daisy_case, "order": order_case}[kind]
     case, seconds = timed(lambda: runner(*args))
     return kind, {**case, "task_seconds": seconds}
 
@@ -253,13 +268,21 @@ def markdown(report: dict[str, Any]) -> str:
         out += [f"- {c['name']} {m}: {c[m]['failed']}" for c in report["daisy"] for m in ("discrete", "continuous")
                 if c[m]["failed"]]
         out.append("")
+    if report["order"]:
+        columns = [*(f"z={z:g}" for z in ORDER_WIDTHS), "best VAF"]
+        out += ["## 5. The order rule's width (seeds 100-109, true order 4)", "",
+                "| record | " + " | ".join(columns) + " |", "|---|" + "---|" * len(columns)]
+        for kind in ("uniform", "irregular"):
+            rows = [c for c in report["order"] if c["kind"] == kind]
+            out.append(f"| {kind} | " + " | ".join(f"{sum(c[k] == 4 for c in rows)} of {len(rows)}" for k in columns) + " |")
+        out.append("")
     return "\n".join(out)
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=20)
-    parser.add_argument("--parts", default="1,2,3,4", help="comma-separated subset of 1,2,3,4")
+    parser.add_argument("--parts", default="1,2,3,4,5", help="comma-separated subset of 1,2,3,4,5")
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--out", type=Path, default=Path("bench-results"))
     args = parser.parse_args()
@@ -273,14 +296,17 @@ def main() -> None:
                   for seed in range(min(CONVERGENCE_SEEDS, args.seeds)) for center in (True, False)]
     if 4 in parts:
         tasks += [("daisy", name) for name in daisy_names()]
+    if 5 in parts:
+        tasks += [("order", seed, kind) for seed in ORDER_SEEDS for kind in ("uniform", "irregular")]
     start = time.perf_counter()
     done = Parallel(n_jobs=args.jobs, backend="loky")(delayed(run_task)(task) for task in tasks)
-    grouped: dict[str, list[Case]] = {kind: [] for kind in ("seed", "exact", "convergence", "daisy")}
+    grouped: dict[str, list[Case]] = {kind: [] for kind in ("seed", "exact", "convergence", "daisy", "order")}
     for kind, case in done:
         grouped[kind].append(case)
     report = {"command": " ".join(["python", *sys.argv]), "seeds": args.seeds, "jobs": args.jobs,
               "parts": sorted(parts), "seconds": time.perf_counter() - start, "seed_cases": grouped["seed"],
-              "exactness": grouped["exact"], "convergence": grouped["convergence"], "daisy": grouped["daisy"]}
+              "exactness": grouped["exact"], "convergence": grouped["convergence"], "daisy": grouped["daisy"],
+              "order": grouped["order"]}
     args.out.mkdir(parents=True, exist_ok=True)
     (args.out / "continuous.json").write_text(json.dumps(report, indent=1, default=str))
     (args.out / "continuous.md").write_text(markdown(report))

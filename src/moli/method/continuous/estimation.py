@@ -81,9 +81,13 @@ class StampedRecord:
 
 
 def stamped_record(data: IOData, gap_factor: float = GAP_FACTOR) -> StampedRecord:
-    """``data``'s segments, cut again at steps over ``gap_factor`` median steps.
+    """``data``'s stretches between steps over ``gap_factor`` median steps.
 
     The stamps are ``data.times`` when the record carries them, else ``k * Ts``.
+    Consecutive segments of ``data`` whose stamps continue across the boundary (a step
+    forward within the bound) are one stretch: the readers' cuts at steps of 1.5
+    periods and at missing samples are gaps of a sampled model only. Segments whose
+    stamps restart (separate experiments) or jump further stay apart.
     """
     stamps = data.time()
     pieces: list[tuple[int, int]] = []
@@ -98,8 +102,17 @@ def stamped_record(data: IOData, gap_factor: float = GAP_FACTOR) -> StampedRecor
     if steps.size == 0:
         raise DataError("the record has no two stamps in one segment: continuous time needs steps")
     limit = gap_factor * float(np.median(steps))
+    # a segment boundary the stamps step over within the bound is rejoined: the readers
+    # cut at steps of 1.5 periods and at missing samples, which are a sampled model's
+    # gaps, not a continuous one's
+    joined = [pieces[0]]
+    for start, stop in pieces[1:]:
+        if 0 < stamps[start] - stamps[joined[-1][1] - 1] <= limit and start == joined[-1][1]:
+            joined[-1] = (joined[-1][0], stop)
+        else:
+            joined.append((start, stop))
     cut: list[tuple[int, int]] = []
-    for start, stop in pieces:
+    for start, stop in joined:
         breaks = start + 1 + np.flatnonzero(np.diff(stamps[start:stop]) > limit)
         edges = [start, *breaks.tolist(), stop]
         cut += [(a, b) for a, b in zip(edges[:-1], edges[1:]) if b - a >= 2]
