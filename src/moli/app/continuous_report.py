@@ -20,7 +20,7 @@ from .._version import __version__
 from ..data.atomic_files import write_atomic
 from ..data.display import figure_label, report_name
 from ..data.files import file_sha256
-from ..method.continuous.estimation import simulate_stamped, stamped_record
+from ..method.continuous.estimation import simulate_stamped, stamped_record, warm_up_rows
 from ..method.continuous.identification import ContinuousResult
 from ..method.continuous.search import WARM_UP
 from ..models.bands import magnitude_bands
@@ -67,7 +67,7 @@ def _validation_figure(result: ContinuousResult) -> Figure:
     fig = figures.new_figure(7.0, figures.PANEL_HEIGHT * result.model.p + 0.4)
     axes = fig.subplots(result.model.p, 1, sharex=True, squeeze=False)[:, 0]
     for k, (t, y, yhat) in enumerate(zip(record.times, record.y, simulated)):
-        warm = t[min(int(np.ceil(WARM_UP * t.size)), t.size - 1)]
+        warm = t[warm_up_rows(t.size, WARM_UP, result.model.n, result.model.p) - 1]
         for i, ax in enumerate(axes):
             ax.axvspan(t[0], warm, color="0.92", lw=0)
             ax.plot(t, y[:, i], color="0.5", lw=0.8, label="measured" if k == 0 else None)

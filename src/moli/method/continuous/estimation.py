@@ -29,7 +29,7 @@ from .filters import unit_divisors
 from ...models.propagation import propagate
 
 __all__ = ["StampedRecord", "stamped_record", "observer_rows", "filter_factor", "fit_list", "model_part",
-           "simulate_stamped"]
+           "output_problems", "solve_scaled", "simulate_stamped", "warm_up_rows"]
 
 # A step longer than this many median steps starts a new segment (samples missing):
 # the input over it is unknown, so no inter-sample assumption bridges it.
@@ -212,8 +212,27 @@ def solve_scaled(matrix: np.ndarray, target: np.ndarray) -> np.ndarray:
 
 def fit_list(factor: np.ndarray, wc: float, zeta: float, indices: Indices, s: float, m: int
              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[np.ndarray]]:
-    """``A, B, C`` (per time unit) of the list fitted with the filter ``(wc, zeta)``, and its thetas
-    (each output's parameters, the transients' included)."""
+    """The list's model fitted with the filter ``(wc, zeta)``.
+
+    Parameters
+    ----------
+    factor : ndarray
+        Triangular factor of the filter's rows (:func:`filter_factor`).
+    wc, zeta : float
+        The filter.
+    indices : tuple of int
+    s : float
+        Root spacing factor.
+    m : int
+        Number of inputs.
+
+    Returns
+    -------
+    A, B, C : ndarray
+        Shapes (n, n), (n, m), (p, n), per time unit of the stamps.
+    thetas : list of ndarray
+        Each output's parameters, the nuisance ones (transients, offset) included.
+    """
     alpha, *divisors = unit_divisors(zeta, indices, s)
     p, nbar = len(indices), alpha.size - 1
     channels = (factor.shape[1] - p - 1) // nbar
@@ -221,6 +240,12 @@ def fit_list(factor: np.ndarray, wc: float, zeta: float, indices: Indices, s: fl
     parts = [model_part(theta, l, p, m, channels)[None] for theta, l in zip(thetas, indices)]
     A, B, C, _ = observer_form_matrices(parts, [divisors], indices, m)
     return wc * A[0], wc * B[0], C[0], thetas
+
+
+def warm_up_rows(size: int, share: float, n: int, p: int) -> int:
+    """Samples of a segment of ``size`` on which its initial state is fitted: ``share`` of
+    them, and at least twice the equations its ``n`` states and ``p`` offsets need."""
+    return min(max(int(np.ceil(share * size)), 2 * -(-(n + p) // p)), size)
 
 
 def simulate_stamped(A: np.ndarray, B: np.ndarray, C: np.ndarray, record: StampedRecord,
@@ -236,7 +261,7 @@ def simulate_stamped(A: np.ndarray, B: np.ndarray, C: np.ndarray, record: Stampe
     linear = np.full((record.m, 1), linear_inputs)
     out = []
     for t, y, u in zip(record.times, record.y, record.u):
-        rows = max(int(np.ceil(warm_up * t.size)), 1)
+        rows = warm_up_rows(t.size, warm_up, n, y.shape[1])
         forced = propagate(A, B, t - t[0], u[:, :, None], linear)[:, :, 0] @ C.T
         free = C @ propagate(A, np.zeros((n, 1)), t - t[0], np.zeros((t.size, 1, n)),
                              np.zeros((1, n), bool), start=np.eye(n))                  # (N, p, n)

@@ -19,10 +19,10 @@ from ...models.continuous import ContinuousModel
 from ..search import ScoredStep
 from ..structure import Indices, raised
 from ..tuning import barycenter
-from .estimation import StampedRecord, filter_factor, fit_list, simulate_stamped
+from .estimation import StampedRecord, filter_factor, fit_list, simulate_stamped, warm_up_rows
 from .filters import unit_divisors
 
-__all__ = ["ContinuousStep", "ContinuousSearch", "error_ratios", "WARM_UP"]
+__all__ = ["ContinuousStep", "ContinuousSearch", "greedy_path", "error_ratios", "WARM_UP"]
 
 # Share of each validation segment on which its initial state is fitted (and not scored).
 WARM_UP = 0.2
@@ -154,7 +154,7 @@ class ContinuousSearch:
         with np.errstate(all="ignore"):
             simulated = simulate_stamped(model.A, model.B, model.C, self.validation, self.linear_inputs,
                                          WARM_UP)
-        kept = [slice(int(np.ceil(WARM_UP * t.size)), None) for t in self.validation.times]
+        kept = [slice(warm_up_rows(t.size, WARM_UP, model.n, model.p), None) for t in self.validation.times]
         simulated = [part[rows] for part, rows in zip(simulated, kept)]
         measured = tuple(part[rows] for part, rows in zip(self.validation.y, kept))
         ratios = error_ratios(simulated, measured)
