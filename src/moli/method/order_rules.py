@@ -77,13 +77,16 @@ def select_order_paired(path: list[PathStep], validation: IOData, x0: str = "zer
     return select_by_shares(path, lambda i: _error_shares(path[i].model, validation, x0), z)
 
 
-def select_by_shares(path: list, shares: Callable[[int], np.ndarray], z: float = PAIRED_Z) -> int:
+def select_by_shares(path: list, shares: Callable[[int], np.ndarray], z: float = PAIRED_Z,
+                     negligible: float = 0.0) -> int:
     """:func:`select_order_paired` given each path model's per-sample error shares.
 
     ``shares(i)`` is model ``i``'s squared validation error per sample, in points
     (summed over the samples: the mean over the outputs of
     ``100 |e_j|^2 / |y_j - mean(y_j)|^2``). Any path whose steps have ``order``,
-    ``stable`` and ``mean_vaf`` will do (the continuous-time path uses it too).
+    ``stable`` and ``mean_vaf`` will do (the continuous-time path uses it too). An order
+    also passes when it loses at most ``negligible`` points, however many standard
+    errors that is (long records make tiny differences significant).
     """
     eligible = [i for i, st in enumerate(path) if st.stable] or list(range(len(path)))
     best = max(eligible, key=lambda i: path[i].mean_vaf)
@@ -92,7 +95,7 @@ def select_by_shares(path: list, shares: Callable[[int], np.ndarray], z: float =
         if i == best:
             return i
         worse, spread = _paired_difference(shares(i), reference)
-        if np.isfinite(worse) and worse <= z * spread:
+        if np.isfinite(worse) and worse <= max(z * spread, negligible):
             return i
     return best
 

@@ -24,6 +24,11 @@ __all__ = ["ContinuousResult", "identify_continuous"]
 # What the discrete pipeline adds and the continuous one does not (docs/continuous.md §7).
 NOT_CARRIED = ("feedthrough", "refinement", "noise model", "per-output filters", "delays",
                "trend removal in J")
+# A loss of validation VAF below this many points passes the paired rule whatever its
+# standard error: the reports print VAF to two decimals, and on long records a higher
+# order's extra modes buy significant but invisible thousandths of a point
+# (docs/continuous.md §5 gives the seeds that chose it).
+NEGLIGIBLE_VAF = 0.01
 # The options of those steps (and of the discrete search): in continuous time they must
 # keep their defaults, so that none is silently ignored.
 DISCRETE_ONLY = ("filter_grid", "iterations", "seed", "output_filters", "feedthrough", "max_radius",
@@ -74,7 +79,8 @@ class ContinuousResult:
         if opts.order is not None:
             return f"fixed order {opts.order}"
         if opts.order_rule in (None, "paired"):
-            return f"paired rule: the lowest order within {opts.order_errors:g} standard errors of the best"
+            return (f"paired rule: the lowest order within {opts.order_errors:g} standard errors, or "
+                    f"{NEGLIGIBLE_VAF:g} points, of the best")
         return f"tolerance rule: the lowest order within {opts.order_tolerance:g} points of the best VAF"
 
     def summary(self) -> str:
@@ -155,7 +161,7 @@ def identify_continuous(estimation: IOData, validation: IOData, source: str, opt
                             f"{opts.order}: the record is too short for it")
         chosen = at[0]
     elif opts.order_rule in (None, "paired"):
-        chosen = select_by_shares(path, lambda i: path[i].errors, opts.order_errors)
+        chosen = select_by_shares(path, lambda i: path[i].errors, opts.order_errors, NEGLIGIBLE_VAF)
     else:
         chosen = select_order(path, opts.order_tolerance)
     step = path[chosen]
