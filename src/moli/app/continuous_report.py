@@ -62,12 +62,13 @@ def _gain_table(result: ContinuousResult) -> str:
 
 def _validation_figure(result: ContinuousResult) -> Figure:
     record = stamped_record(result.validation)
+    end = result.options.path_end(result.model.p)        # the warm-up the search scored with
     simulated = simulate_stamped(result.model.A, result.model.B, result.model.C, record,
-                                 result.options.input_hold == "foh", WARM_UP)
+                                 result.options.input_hold == "foh", WARM_UP, end)
     fig = figures.new_figure(7.0, figures.PANEL_HEIGHT * result.model.p + 0.4)
     axes = fig.subplots(result.model.p, 1, sharex=True, squeeze=False)[:, 0]
     for k, (t, y, yhat) in enumerate(zip(record.times, record.y, simulated)):
-        warm = t[warm_up_rows(t.size, WARM_UP, result.model.n, result.model.p) - 1]
+        warm = t[warm_up_rows(t.size, WARM_UP, end, result.model.p) - 1]
         for i, ax in enumerate(axes):
             ax.axvspan(t[0], warm, color="0.92", lw=0)
             ax.plot(t, y[:, i], color="0.5", lw=0.8, label="measured" if k == 0 else None)

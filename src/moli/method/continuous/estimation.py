@@ -249,19 +249,20 @@ def warm_up_rows(size: int, share: float, n: int, p: int) -> int:
 
 
 def simulate_stamped(A: np.ndarray, B: np.ndarray, C: np.ndarray, record: StampedRecord,
-                     linear_inputs: bool, warm_up: float = 1.0) -> list[np.ndarray]:
+                     linear_inputs: bool, warm_up: float = 1.0, states: int | None = None) -> list[np.ndarray]:
     """Each segment's simulated outputs, from the initial state that fits it best.
 
     A record cut at gaps starts its segments mid-motion, so each segment's initial
     state is the least-squares fit of the free responses ``C exp(A t) e_i`` (beside a
     constant per output) to what the forced response leaves on the segment's first
-    ``warm_up`` share of samples (docs/continuous.md §5).
+    ``warm_up`` share of samples (docs/continuous.md §5), and at least the samples
+    ``states`` states need (:func:`warm_up_rows`; default the model's own order).
     """
     n = A.shape[0]
     linear = np.full((record.m, 1), linear_inputs)
     out = []
     for t, y, u in zip(record.times, record.y, record.u):
-        rows = warm_up_rows(t.size, warm_up, n, y.shape[1])
+        rows = warm_up_rows(t.size, warm_up, n if states is None else states, y.shape[1])
         forced = propagate(A, B, t - t[0], u[:, :, None], linear)[:, :, 0] @ C.T
         free = C @ propagate(A, np.zeros((n, 1)), t - t[0], np.zeros((t.size, 1, n)),
                              np.zeros((1, n), bool), start=np.eye(n))                  # (N, p, n)

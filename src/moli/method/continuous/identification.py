@@ -146,10 +146,10 @@ def identify_continuous(estimation: IOData, validation: IOData, source: str, opt
     fitted, scored = stamped_record(estimation), stamped_record(validation)
     p = estimation.p
     omega = continuous_grid(fitted.steps(), fitted.durations()) if opts.omega is None else np.array(opts.omega)
+    end = opts.path_end(p)
     search = ContinuousSearch(fitted, scored, omega, opts.s, opts.input_hold == "foh",
                               (estimation.output_names, estimation.input_names),
-                              (estimation.y_offset, estimation.u_offset))
-    end = opts.path_end(p)
+                              (estimation.y_offset, estimation.u_offset), end)
     path = greedy_path(search, end, progress)
     if not path:
         raise DataError(f"the estimation record has {fitted.rows(1)} usable samples: too few for even "

@@ -85,12 +85,17 @@ class ContinuousSearch:
         Inputs linear between samples (else held).
     names : tuple of (output names, input names)
     offsets : tuple of (y offset, u offset)
+    largest_order : int
+        The path's end: every model's validation warm-up is the one this order needs,
+        so that all are scored on the same samples (the paired rule compares them
+        sample by sample).
     """
 
     def __init__(self, estimation: StampedRecord, validation: StampedRecord, omega: np.ndarray,
                  s: float, linear_inputs: bool, names: tuple[tuple[str, ...], tuple[str, ...]],
-                 offsets: tuple[np.ndarray, np.ndarray]) -> None:
+                 offsets: tuple[np.ndarray, np.ndarray], largest_order: int) -> None:
         self.estimation, self.validation = estimation, validation
+        self.largest_order = largest_order
         self.omega, self.s, self.linear_inputs = omega, s, linear_inputs
         self.names, self.offsets = names, offsets
         self._factors: dict[tuple, np.ndarray] = {}
@@ -153,8 +158,9 @@ class ContinuousSearch:
         """
         with np.errstate(all="ignore"):
             simulated = simulate_stamped(model.A, model.B, model.C, self.validation, self.linear_inputs,
-                                         WARM_UP)
-        kept = [slice(warm_up_rows(t.size, WARM_UP, model.n, model.p), None) for t in self.validation.times]
+                                         WARM_UP, self.largest_order)
+        kept = [slice(warm_up_rows(t.size, WARM_UP, self.largest_order, model.p), None)
+                for t in self.validation.times]
         simulated = [part[rows] for part, rows in zip(simulated, kept)]
         measured = tuple(part[rows] for part, rows in zip(self.validation.y, kept))
         ratios = error_ratios(simulated, measured)
