@@ -19,7 +19,7 @@ from ..validation.comparison import compare
 from .search import PathStep, StructureSearch
 from .structure import raised
 
-__all__ = ["select_order", "select_order_paired", "select_by_shares", "select_order_refined", "siblings", "clearly_better"]
+__all__ = ["select_order", "select_order_paired", "select_by_shares", "error_shares", "select_order_refined", "siblings", "clearly_better"]
 
 # Batches of the paired order rule: enough for a standard error, each long enough
 # (tens of samples on short records) to hold the errors' serial correlation.
@@ -198,10 +198,15 @@ def clearly_better(step: PathStep, than: PathStep, validation: IOData, x0: str =
 def _error_shares(model: StateSpaceModel, validation: IOData, x0: str = "zero") -> np.ndarray:
     """Each sample's squared simulation error, in points: summed over the samples, the mean
     over the outputs of ``100 |e_j|^2 / |y_j - mean(y_j)|^2``; inf where the simulation diverges."""
-    y = validation.y
+    return error_shares(validation.y, compare(model, validation, x0).yhat)
+
+
+def error_shares(y: np.ndarray, yhat: np.ndarray) -> np.ndarray:
+    """Each sample's squared error of ``yhat``, in points (see :func:`_error_shares`); inf where not finite."""
     scale = 100.0 / (y.shape[1] * np.maximum(np.sum((y - y.mean(axis=0)) ** 2, axis=0), 1e-300))
-    error = y - compare(model, validation, x0).yhat
-    return np.nan_to_num((error**2) @ scale, nan=np.inf, posinf=np.inf)
+    with np.errstate(all="ignore"):
+        shares = ((y - yhat) ** 2) @ scale
+    return np.nan_to_num(shares, nan=np.inf, posinf=np.inf)
 
 
 def _paired_difference(shares: np.ndarray, reference: np.ndarray) -> tuple[float, float]:

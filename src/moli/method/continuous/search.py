@@ -16,6 +16,7 @@ from typing import Callable
 import numpy as np
 
 from ...models.continuous import ContinuousModel
+from ..order_rules import error_shares
 from ..search import ScoredStep
 from ..structure import Indices, raised
 from ..tuning import barycenter
@@ -165,11 +166,7 @@ class ContinuousSearch:
         measured = tuple(part[rows] for part, rows in zip(self.validation.y, kept))
         ratios = error_ratios(simulated, measured)
         vaf = 100.0 * (1.0 - np.minimum(ratios, 1.0))
-        y = np.concatenate(measured)
-        scale = 100.0 / (y.shape[1] * np.maximum(np.sum((y - y.mean(axis=0)) ** 2, axis=0), 1e-300))
-        with np.errstate(all="ignore"):
-            shares = ((y - np.concatenate(simulated)) ** 2) @ scale
-        return vaf, np.nan_to_num(shares, nan=np.inf, posinf=np.inf)
+        return vaf, error_shares(np.concatenate(measured), np.concatenate(simulated))
 
 
 def greedy_path(search: ContinuousSearch, end: int, progress: Callable[[ContinuousStep], None] | None = None
