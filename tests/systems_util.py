@@ -1,4 +1,4 @@
-"""Random test systems with known structure."""
+"""Test systems with known truth: random systems of known structure, a plant under PI loops."""
 
 from __future__ import annotations
 
@@ -74,3 +74,36 @@ def resonant_noise_system() -> tuple[moli.StateSpaceModel, np.ndarray, np.ndarra
     C = np.array([[1.0, 0.0, 1.0], [0.0, 1.0, -0.5]])
     K, cov = kalman_gain(A, C, np.diag([0.2, 0.2, 0.01]), 0.05 * np.eye(2))
     return moli.StateSpaceModel(A, B, C), K, cov
+
+
+# The closed-loop plant: two first-order channels (poles 0.9 and 0.85) with coupling, y = x + v.
+PI_LOOP_A = np.diag([0.9, 0.85])
+PI_LOOP_B = np.array([[0.1, 0.03], [0.02, 0.15]])
+PI_LOOP_GAIN = np.linalg.solve(np.eye(2) - PI_LOOP_A, PI_LOOP_B)
+
+
+def pi_loop(seed: int, N: int = 3000, colour: float = 0.9, sd: float = 0.3) -> moli.IOData:
+    """Two PI loops (kp 1, ki 0.15) on the plant, tracking random set-point steps held 30-150
+    samples, output noise AR(1) with pole ``colour``; inputs u1, u2 and the references r1, r2."""
+    rng = np.random.default_rng(seed)
+    r = np.zeros((N, 2))
+    for c in range(2):
+        k = 0
+        while k < N:
+            hold = int(rng.integers(30, 151))
+            r[k : k + hold, c] = rng.uniform(-1, 1)
+            k += hold
+    w = rng.standard_normal((N, 2))
+    v = np.zeros((N, 2))
+    for k in range(N):
+        v[k] = colour * v[k - 1] + w[k] if k else w[k]
+    v *= sd / v.std(axis=0)
+    x, integral = np.zeros(2), np.zeros(2)
+    y, u = np.zeros((N, 2)), np.zeros((N, 2))
+    for k in range(N):
+        y[k] = x + v[k]
+        error = r[k] - y[k]
+        integral += error
+        u[k] = error + 0.15 * integral
+        x = PI_LOOP_A @ x + PI_LOOP_B @ u[k]
+    return moli.IOData(y, np.hstack([u, r]), input_names=["u1", "u2", "r1", "r2"])

@@ -20,7 +20,7 @@ from ._version import __version__
 from .errors import (
     ClosedLoopWarning, DataError, DataQualityWarning, FilterError, IllConditionedWarning,
     IrregularSamplingWarning, ModelFileError, MoliError, OptionError, OrderBoundWarning,
-    SamplingPeriodWarning, ShortValidationWarning, StructureError, UnstableModelWarning,
+    SamplingPeriodWarning, ShortValidationWarning, StructureError, UnstableModelWarning, WeakReferenceWarning,
 )
 
 # public name -> the subpackage that defines it
@@ -49,7 +49,7 @@ __all__ = [
     "__version__", "MoliError", "DataError", "FilterError", "IllConditionedWarning",
     "ModelFileError", "OptionError", "StructureError", "UnstableModelWarning", "DataQualityWarning",
     "OrderBoundWarning", "ClosedLoopWarning", "IrregularSamplingWarning", "SamplingPeriodWarning",
-    "ShortValidationWarning",
+    "ShortValidationWarning", "WeakReferenceWarning",
     *_HOMES, *_SUBPACKAGES,
 ]
 

@@ -15,6 +15,7 @@ __all__ = [
     "ControlDesignError", "wrong_type",
     "UnstableModelWarning", "IllConditionedWarning", "DataQualityWarning", "OrderBoundWarning",
     "ClosedLoopWarning", "IrregularSamplingWarning", "SamplingPeriodWarning", "ShortValidationWarning",
+    "WeakReferenceWarning",
 ]
 
 
@@ -93,6 +94,10 @@ class ShortValidationWarning(UserWarning):
 
 class ClosedLoopWarning(UserWarning):
     """The estimation data look closed-loop: an input depends on past outputs."""
+
+
+class WeakReferenceWarning(UserWarning):
+    """The logged references explain little of a plant input: the loop is driven by its noise."""
 
 
 class SamplingPeriodWarning(UserWarning):

@@ -247,3 +247,22 @@ def test_fit_continuous_reads_jittered_stamps_and_writes_a_continuous_model(tmp_
     assert isinstance(loaded, moli.ContinuousModel) and loaded.n == 1
     # a first-order plant at 40 dB on 1500 samples: its pole -0.5 within 2 %
     assert abs(loaded.poles()[0] + 0.5) < 0.01
+
+
+def test_fit_with_a_reference_column_identifies_the_plant_inputs_by_two_stages(tmp_path):
+    from systems_util import pi_loop
+
+    record = pi_loop(0, N=1500)
+    table = np.column_stack([record.y, record.u])
+    data = tmp_path / "loop.csv"
+    data.write_text("y1,y2,u1,u2,r1,r2\n" + "\n".join(",".join(f"{v:.17g}" for v in row) for row in table))
+    result = run("fit", str(data), "--inputs", "u1,u2", "--outputs", "y1,y2", "--reference", "r1,r2",
+                 "--nmax", "3", "--out", str(tmp_path / "model.json"))
+    assert result.exit_code == 0, result.output
+    assert "closed loop: two-stage method" in result.output
+    loaded = moli.load_model(tmp_path / "model.json")
+    assert loaded.input_names == ("u1", "u2") and loaded.info["closed_loop"]["reference"] == ["r1", "r2"]
+    refused = run("fit", str(data), "--inputs", "u1,u2", "--outputs", "y1,y2", "--closed-loop", "two-stage",
+                  "--out", str(tmp_path / "other.json"))
+    assert refused.exit_code == 2
+    assert refused.output.count("moli: error:") == 1 and "needs reference" in refused.output

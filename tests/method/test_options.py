@@ -40,6 +40,8 @@ BAD = {
     "search_samples": (2.0**15, 499),
     "time": ("sampled", 1),
     "input_hold": ("linear", None),
+    "reference": (3, []),
+    "closed_loop": (True, "indirect"),
 }
 
 

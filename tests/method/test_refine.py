@@ -6,7 +6,8 @@ import pytest
 import moli
 from moli.errors import OptionError
 from moli.method.observer_form import observer_form
-from moli.method.refinement import OutputErrorProblem, refine, refine_each
+from moli.method.output_error import OutputErrorProblem
+from moli.method.refinement import refine, refine_each
 
 
 def _plant(seed=0):

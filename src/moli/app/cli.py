@@ -237,13 +237,20 @@ def demo(out_dir: Path, nmax: int, all_lists: bool, force: bool) -> None:
                    "(docs/continuous.md).")
 @click.option("--input-hold", type=click.Choice(["zoh", "foh"]),
               help="With --continuous: the inputs between samples, held (zoh) or linear (foh) [default: zoh].")
+@click.option("--reference", help="Comma-separated columns holding the loops' logged set-points: they "
+              "select the two-stage closed-loop method (docs/closed_loop.md).")
+@click.option("--closed-loop", type=click.Choice(["open", "two-stage", "direct"]),
+              help="A record taken under feedback: identify it as open-loop, by the two-stage method "
+                   "(needs --reference) or by the direct prediction-error method [default: two-stage "
+                   "with --reference, else open].")
 @_FORCE
 @reading_options
 def fit(data_files: tuple[Path, ...], inputs: str | None, outputs: str | None, daisy: str | None,
         data_dir: Path | None, ts: float | None, options_file: Path | None, nmax: int | None,
         order: int | None, fraction: float, seed: int | None, preset: str | None, x0: str | None,
         outliers: str, model_path: Path | None, report_dir: Path | None, all_lists: bool,
-        continuous: bool, input_hold: str | None, force: bool, **reading: Any) -> None:
+        continuous: bool, input_hold: str | None, reference: str | None, closed_loop: str | None, force: bool,
+        **reading: Any) -> None:
     """Identify a model from a data file, several runs of one plant, or a DaISy set.
 
     DATA is a text table (.csv .tsv .txt), an Excel workbook (.xlsx), Parquet, .npz or
@@ -256,7 +263,8 @@ def fit(data_files: tuple[Path, ...], inputs: str | None, outputs: str | None, d
     if bool(data_files) == (daisy is not None):
         raise DataError("give either DATA files or --daisy NAME")
     options = options_from_flags(options_file, preset, nmax=nmax, order=order, seed=seed, x0=x0,
-                                 time="continuous" if continuous else None, input_hold=input_hold)
+                                 time="continuous" if continuous else None, input_hold=input_hold,
+                                 reference=names(reference), closed_loop=closed_loop)
     stems = [daisy] if daisy is not None else [path.stem for path in data_files]
     read = [*data_files, *([options_file] if options_file is not None else [])]
     model_path, report_dir = _outputs(model_path, report_dir, run_folder("fit", stems), force, read)
@@ -268,7 +276,9 @@ def fit(data_files: tuple[Path, ...], inputs: str | None, outputs: str | None, d
             data = load_daisy(daisy, data_dir)
             source, data_files = f"DaISy {daisy}", (daisy_path(daisy, data_dir),)
         else:
-            data = read_records(data_files, names(inputs), names(outputs), ts, reading, noted)
+            # the references are read as inputs; identify sets them apart
+            data = read_records(data_files, [*names(inputs), *names(reference)] if inputs and reference
+                                else names(inputs), names(outputs), ts, reading, noted)
             source = ", ".join(map(str, data_files))
     click.echo(f"{source}: {data}" + (f" (the {len(data_files)} files merged)" if len(data_files) > 1 else ""))
     removed = flag_outliers(data).counts if outliers == "remove" else {}

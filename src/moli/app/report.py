@@ -100,6 +100,8 @@ def _model_facts(result: IdentificationResult) -> str:
         "selected by": f"{result.selection}, on {result.validation.N} validation samples "
                        f"({result.validation_source})",
     }
+    if result.loop_method is not None:
+        facts["closed loop"] = result.loop_method
     return facts_table(facts)
 
 

@@ -6,7 +6,8 @@ of observability indices), :mod:`.filters` (the filter α and its divisors),
 :mod:`.regression` and :mod:`.scoring` (the shared factors and the criterion J),
 :mod:`.tuning` (the barycenter filter search), :mod:`.output_filters`,
 :mod:`.search` (greedy path, order rule), :mod:`.refinement` (on the parameters of
-:mod:`.observer_form`), :mod:`.noise_model`
+:mod:`.observer_form`), :mod:`.prediction_error` and :mod:`.reference_projection` (the
+direct and two-stage methods for closed-loop records), :mod:`.noise_model`
 (Kalman gain from the residuals), :mod:`.covariance` and :mod:`.uncertainty` (the
 covariance of the parameters and of the matrices), :mod:`.options` and :mod:`.identification` (the
 one-call entry point). :mod:`.continuous` is the same method in continuous time
@@ -19,6 +20,8 @@ from .filters import divisor, divisors, filter_polynomial
 from .identification import IdentificationResult, identify
 from .noise_model import estimate_noise_model
 from .options import IdentifyOptions
+from .prediction_error import prediction_error_refine
+from .reference_projection import ReferenceProjection, fit_projection
 from .refinement import RefineResult, refine, refine_each
 from .search import PathStep, exhaustive
 from .tuning import TuningResult, default_omega, tune_filter
@@ -28,5 +31,5 @@ __all__ = [
     "estimate", "realize", "divisor", "divisors", "filter_polynomial", "IdentificationResult",
     "identify", "IdentifyOptions", "estimate_noise_model", "RefineResult", "refine", "refine_each", "PathStep", "exhaustive",
     "TuningResult", "default_omega", "tune_filter", "estimate_covariance",
-    "ContinuousResult", "ContinuousStep",
+    "ContinuousResult", "ContinuousStep", "prediction_error_refine", "ReferenceProjection", "fit_projection",
 ]

@@ -21,6 +21,8 @@ from .long_records import reestimate, search_window
 from .records import check_reach, check_scales, input_delays, long_segments, shifted_inputs
 from .noise_model import estimate_noise_model
 from .options import IdentifyOptions
+from .reference_projection import ReferenceProjection, two_stage_records, without_reference
+from .prediction_error import prediction_error_refine
 from .refinement import MAX_RADIUS
 from .refinement import refine_each
 from .refined_covariance import is_refined
@@ -140,6 +142,20 @@ def identify(
     if opts.input_hold != "zoh":
         raise OptionError(f"IdentifyOptions.input_hold={opts.input_hold!r} applies in continuous time only "
                           "(time='continuous'): a sampled model takes each input as it is sampled")
+    loop = opts.closed_loop or ("two-stage" if opts.reference else "open")
+    if loop == "direct":
+        # a controller that reads y[k] to make u[k] would let a feedthrough carry y[k] into
+        # its own prediction: the direct method needs a delay in the loop, the plant's
+        if opts.feedthrough is True:
+            raise OptionError("closed_loop='direct' needs a delay in the loop: a model with feedthrough=True "
+                              "would predict each output from the input its controller made of it; use the "
+                              "two-stage method (reference=[...]) for a plant with direct feedthrough")
+        opts = opts.replace(feedthrough=False)
+    projection = None
+    if loop == "two-stage":
+        estimation, validation, projection = two_stage_records(estimation, validation, opts.reference)
+    elif opts.reference:        # a method that does not use the references: the plant inputs alone
+        estimation, validation = (without_reference(record, opts.reference) for record in (estimation, validation))
     estimation = long_segments(estimation, opts.path_end(data.p), opts.feedthrough is not False)
     if opts.center:
         estimation = estimation.remove_means()
@@ -156,7 +172,7 @@ def identify(
     screen(estimation, nmax, stacklevel=2)
     start = time.perf_counter()
     # a plant told to have feedthrough shows it at lag 0 like feedback: test later lags only
-    _warn_if_closed_loop(estimation, lag_zero=opts.feedthrough is not True)
+    feedback = _feedback(estimation, lag_zero=opts.feedthrough is not True, warn=loop == "open")
     # the path's models are fitted and scored on the shifted inputs, delay-free; the
     # delays are attached once the path is done (the results are the same either way)
     fitted, scored = shifted_inputs(estimation, delays), shifted_inputs(validation, delays)
@@ -210,7 +226,7 @@ def identify(
 
     unrefined = list(path)
     # Ctrl-C after the path keeps the best complete model so far (moli.method.interruption)
-    phases = post_path_phases(opts, long_record=searched is not fitted)
+    phases = post_path_phases(opts, long_record=searched is not fitted, direct=loop == "direct")
     stage, skipped = phases[0], ()
     try:
         if opts.refine == "path" and not interrupted:
@@ -253,6 +269,13 @@ def identify(
                     for candidate in refined(sibling, ridges[:1]):
                         if clearly_better(candidate, path[selected], scored, opts.x0):
                             path[selected] = candidate
+            if loop == "direct":
+                # the noise model of the model so far starts the joint prediction-error estimate
+                stage = begin("noise model")
+                start_model = _attached(estimate_noise_model, "noise_model", path[selected].model, searched)
+                stage = begin("prediction error")
+                direct = prediction_error_refine(start_model, searched, max_radius=bound).model
+                path[selected] = replace(path[selected], model=direct, vaf=compare(direct, scored, opts.x0).vaf)
             # covariance (of the problem that gave the model: a refined one's on the search window, the
             # least squares' on the whole record) and noise model (search window) of the delay-free
             # model, on the shifted record
@@ -260,7 +283,7 @@ def identify(
             kept = path[selected].model
             path[selected] = replace(path[selected], model=_attached(
                 estimate_covariance, "covariance", kept, searched if is_refined(kept) else fitted))
-            if opts.noise_model:
+            if opts.noise_model and loop != "direct":
                 stage = begin("noise model")
                 path[selected] = replace(path[selected], model=_attached(estimate_noise_model, "noise_model",
                                                                          path[selected].model, searched))
@@ -273,6 +296,7 @@ def identify(
             step.model = step.model.with_input_delays(delays)
     model = path[selected].model
     model.info["options"] = opts.to_dict()
+    model.info["closed_loop"] = _loop_record(loop, projection, feedback)
     model.warn_if_unstable(stacklevel=2)
     if path[selected].order >= nmax and not interrupted:
         warnings.warn(
@@ -330,23 +354,37 @@ def _options(options: IdentifyOptions | None, overrides: dict[str, Any]) -> Iden
     return (options or IdentifyOptions()).replace(**overrides)
 
 
-def _warn_if_closed_loop(estimation: IOData, lag_zero: bool) -> None:
-    """Issue a :class:`ClosedLoopWarning` when :func:`feedback_check` flags the record."""
+def _feedback(estimation: IOData, lag_zero: bool, warn: bool) -> str | None:
+    """:func:`feedback_check`'s summary where it flags the record (None where it does not, or
+    the record is too short to tell); a :class:`ClosedLoopWarning` too when ``warn``."""
     # the first FEEDBACK_SAMPLES samples: a loop that shows in no fewer is too weak to
     # matter, and the check's cost stays bounded while the search's grows with N
     # lagged regressions run through time: of a record with gaps, the longest stretch
     record = longest_segment(estimation)[:FEEDBACK_SAMPLES]
     lags = usable_lags(record.N, record.p, record.m)
     if lags == 0:  # too short to tell
-        return
+        return None
     check = feedback_check(record, lags, lag_zero=lag_zero)
-    if check.detected:
+    if check.detected and warn:
         warnings.warn(
             f"the estimation data look closed-loop: {check.summary()}. An output-error model "
-            "fitted to closed-loop data is biased unless the output noise is white. Excite the "
-            "loop from outside (a reference or dither independent of the noise) or use a method "
-            "that models the noise. A plant with direct feedthrough looks the same at lag 0: "
-            "pass feedthrough=True if yours has one",
+            "fitted to closed-loop data is biased unless the output noise is white. Name the logged "
+            "set-points with reference=[...] (the two-stage method), identify with closed_loop='direct' "
+            "(the noise modelled jointly), or excite the loop from outside. A plant with direct "
+            "feedthrough looks the same at lag 0: pass feedthrough=True if yours has one",
             ClosedLoopWarning,
             stacklevel=3,
         )
+    return check.summary() if check.detected else None
+
+
+def _loop_record(loop: str, projection: ReferenceProjection | None, feedback: str | None) -> dict[str, object]:
+    """``info["closed_loop"]``: the method and why it was used."""
+    if loop == "two-stage":
+        why = "references named: each input replaced by the part of it they explain (docs/closed_loop.md)"
+    elif loop == "direct":
+        why = "asked for: the model and its noise model estimated jointly by prediction error"
+    else:
+        why = ("identified as if open-loop, though " + feedback) if feedback else "no feedback detected"
+    record: dict[str, object] = {"method": loop, "why": why, "feedback": feedback}
+    return record | (projection.to_dict() if projection is not None else {})

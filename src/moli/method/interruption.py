@@ -13,7 +13,7 @@ from .options import IdentifyOptions
 __all__ = ["post_path_phases"]
 
 
-def post_path_phases(options: IdentifyOptions, long_record: bool) -> list[str]:
+def post_path_phases(options: IdentifyOptions, long_record: bool, direct: bool = False) -> list[str]:
     """The phases after the greedy path, in the order :func:`moli.identify` runs them.
 
     Parameters
@@ -22,6 +22,9 @@ def post_path_phases(options: IdentifyOptions, long_record: bool) -> list[str]:
     long_record : bool
         The path was searched on a window of the record (``options.search_samples``):
         the selected list is re-estimated on the whole record.
+    direct : bool, default False
+        The direct closed-loop method: a noise model starts the joint prediction-error
+        estimate before the covariance.
 
     Returns
     -------
@@ -37,4 +40,6 @@ def post_path_phases(options: IdentifyOptions, long_record: bool) -> list[str]:
     phases += ["order rule's refinements"] if options.order_rule == "refined" and options.order is None else []
     phases += ["re-estimation on the whole record"] if long_record else []
     phases += ["refinement"] if refine != "none" and (long_record or refine != "path") else []
+    if direct:
+        return phases + ["noise model", "prediction error", "covariance"]
     return phases + ["covariance"] + (["noise model"] if options.noise_model else [])

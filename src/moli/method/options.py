@@ -9,14 +9,15 @@ caller's back, and the repr shows every value.
 from __future__ import annotations
 
 import difflib
-import math
 from dataclasses import asdict, dataclass, fields, replace
 from typing import Any, Mapping
 
-import numpy as np
-
-from ..errors import OptionError, wrong_type
+from ..errors import OptionError
 from ..validation.comparison import X0_CHOICES
+from .option_checks import (
+    check_choice, check_delays, check_flag, check_names, check_integer, check_number, check_omega_pairs, check_ridges,
+    option_error,
+)
 from .regression import FEEDTHROUGH_CHOICES
 from .regularization import REGULARIZATIONS
 from .scoring import MAX_TREND_DEGREE
@@ -32,92 +33,10 @@ ORDER_RULES = ("tolerance", "paired", "refined")
 PRESETS = ("default", "improved", "bounded", "paper")
 TIMES = ("discrete", "continuous")
 INPUT_HOLDS = ("zoh", "foh")
+CLOSED_LOOP_METHODS = ("open", "two-stage", "direct")
 # Shortest search window: a few hundred samples still rank the filters and lists of
 # small plants; below that a window says too little about the record.
 MIN_SEARCH_SAMPLES = 500
-
-
-def _fail(name: str, accepted: str, value: object, of_type: bool = False) -> OptionError:
-    error = wrong_type(OptionError) if of_type else OptionError
-    return error(f"IdentifyOptions.{name} must be {accepted}, got {value!r}")
-
-
-def _integer(name: str, value: object, low: int, high: int | None = None) -> int:
-    accepted = f"an integer >= {low}" if high is None else f"an integer from {low} to {high}"
-    if isinstance(value, bool) or not hasattr(value, "__index__"):
-        raise _fail(name, accepted, value, of_type=True)
-    number = int(value.__index__())  # type: ignore[union-attr]
-    if number < low or (high is not None and number > high):
-        raise _fail(name, accepted, value)
-    return number
-
-
-def _number(name: str, value: object, accepted: str, ok: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) and not hasattr(value, "__float__"):
-        raise _fail(name, accepted, value, of_type=True)
-    number = float(value)  # type: ignore[arg-type]
-    if not (math.isfinite(number) and ok(number)):
-        raise _fail(name, accepted, value)
-    return number
-
-
-def _ridges(value: object) -> float | tuple[float, ...]:
-    accepted = "a number >= 0, or a non-empty sequence of them (guarded refinement tries each)"
-    if isinstance(value, (list, tuple)):
-        if not value:
-            raise _fail("refine_ridge", accepted, value)
-        return tuple(_number("refine_ridge", v, accepted, lambda r: r >= 0) for v in value)
-    return _number("refine_ridge", value, accepted, lambda r: r >= 0)
-
-
-def _choice(name: str, value: object, choices: tuple[Any, ...]) -> Any:
-    for choice in choices:
-        if value is choice or (isinstance(value, str) and value == choice):
-            return choice
-    raise _fail(name, "one of " + ", ".join(repr(c) for c in choices), value)
-
-
-def _flag(name: str, value: object) -> bool:
-    if not isinstance(value, bool):
-        raise _fail(name, "True or False", value, of_type=True)
-    return value
-
-
-def _omega(value: object) -> tuple[tuple[float, float], ...] | None:
-    if value is None:
-        return None
-    accepted = "None or a non-empty list of (wc, zeta) pairs with wc > 0 and zeta > 0"
-    try:
-        rows = [tuple(row) for row in value]  # type: ignore[union-attr]
-    except TypeError:
-        raise _fail("omega", accepted, value) from None
-    pairs = []
-    for row in rows:
-        if len(row) != 2:
-            raise _fail("omega", accepted, value)
-        wc, zeta = (_number("omega", v, accepted, lambda x: x > 0) for v in row)
-        pairs.append((wc, zeta))
-    if not pairs:
-        raise _fail("omega", accepted, value)
-    return tuple(pairs)
-
-
-def _delays(value: object) -> int | tuple[int, ...] | str:
-    if isinstance(value, str) and value == "auto":
-        return "auto"
-    accepted = "'auto', a non-negative integer (every input) or a non-empty sequence of them (one per input)"
-
-    def one(item: object) -> int:
-        if isinstance(item, (bool, np.bool_)) or not hasattr(item, "__index__") \
-                or item.__index__() < 0:  # type: ignore[union-attr]
-            raise _fail("delays", accepted, value)
-        return int(item.__index__())  # type: ignore[union-attr]
-
-    if isinstance(value, (list, tuple, np.ndarray)):
-        if len(value) == 0:
-            raise _fail("delays", accepted, value)
-        return tuple(one(item) for item in value)
-    return one(value)
 
 
 @dataclass(frozen=True)
@@ -226,6 +145,18 @@ class IdentifyOptions:
     input_hold : {"zoh", "foh"}, default "zoh"
         Continuous time: the input between samples, held or linear (the outputs are
         taken as linear between samples).
+    reference : sequence of str, optional
+        Names of input channels of the records that are logged references (set-points
+        of the loops), not plant inputs: the model has the other inputs. They select the
+        two-stage closed-loop method unless ``closed_loop`` says otherwise
+        (docs/closed_loop.md).
+    closed_loop : {"open", "two-stage", "direct"}, optional
+        How a record taken under feedback is identified (docs/closed_loop.md): as if the
+        loop were open; by the two-stage method (the part of each input that the
+        ``reference`` explains replaces the input); or by the direct prediction-error
+        method (the model and its Kalman gain jointly). None (the default): "two-stage"
+        when a ``reference`` is named, else "open", which warns when the record looks
+        closed-loop.
 
     Examples
     --------
@@ -265,50 +196,58 @@ class IdentifyOptions:
     search_samples: int | None = 2**15
     time: str = "discrete"
     input_hold: str = "zoh"
+    reference: tuple[str, ...] | None = None
+    closed_loop: str | None = None
 
     def __post_init__(self) -> None:
         radius = self.max_radius
         if radius == "none" or radius is None:
             radius = None
         elif radius != "auto":
-            radius = _number("max_radius", radius, "'auto', None or a number in (0, 1]",
+            radius = check_number("max_radius", radius, "'auto', None or a number in (0, 1]",
                              lambda r: 0 < r <= 1)
         refine = {True: "selected", False: "none"}.get(self.refine, self.refine) \
             if isinstance(self.refine, bool) else self.refine
         checked = {
-            "nmax": None if self.nmax is None else _integer("nmax", self.nmax, 1),
-            "order_rule": None if self.order_rule is None else _choice("order_rule", self.order_rule, ORDER_RULES),
-            "order": None if self.order is None else _integer("order", self.order, 1),
-            "order_errors": _number("order_errors", self.order_errors,
+            "nmax": None if self.nmax is None else check_integer("nmax", self.nmax, 1),
+            "order_rule": None if self.order_rule is None else check_choice("order_rule", self.order_rule, ORDER_RULES),
+            "order": None if self.order is None else check_integer("order", self.order, 1),
+            "order_errors": check_number("order_errors", self.order_errors,
                                     "a number >= 0 (paired standard errors)", lambda z: z >= 0),
-            "order_tolerance": _number("order_tolerance", self.order_tolerance,
+            "order_tolerance": check_number("order_tolerance", self.order_tolerance,
                                        "a number >= 0 (points of VAF)", lambda t: t >= 0),
-            "omega": _omega(self.omega),
-            "filter_grid": _choice("filter_grid", self.filter_grid, tuple(GRIDS)),
-            "tuning": _choice("tuning", self.tuning, TUNING_METHODS),
-            "iterations": _integer("iterations", self.iterations, 1),
-            "s": _number("s", self.s, "a number > 1", lambda s: s > 1),
-            "seed": _integer("seed", self.seed, 0),
-            "output_filters": _flag("output_filters", self.output_filters),
-            "feedthrough": _choice("feedthrough", self.feedthrough, FEEDTHROUGH_CHOICES),
+            "omega": check_omega_pairs(self.omega),
+            "filter_grid": check_choice("filter_grid", self.filter_grid, tuple(GRIDS)),
+            "tuning": check_choice("tuning", self.tuning, TUNING_METHODS),
+            "iterations": check_integer("iterations", self.iterations, 1),
+            "s": check_number("s", self.s, "a number > 1", lambda s: s > 1),
+            "seed": check_integer("seed", self.seed, 0),
+            "output_filters": check_flag("output_filters", self.output_filters),
+            "feedthrough": check_choice("feedthrough", self.feedthrough, FEEDTHROUGH_CHOICES),
             "max_radius": radius,
-            "criterion_x0": _choice("criterion_x0", self.criterion_x0, X0_CHOICES),
-            "trend_degree": _integer("trend_degree", self.trend_degree, 0, MAX_TREND_DEGREE),
-            "refine": _choice("refine", refine, REFINE_CHOICES),
-            "refine_iterations": _integer("refine_iterations", self.refine_iterations, 1),
-            "refine_ridge": _ridges(self.refine_ridge),
-            "center": _flag("center", self.center),
-            "x0": _choice("x0", self.x0, X0_CHOICES),
-            "noise_model": _flag("noise_model", self.noise_model),
-            "regularization": _choice("regularization", self.regularization, REGULARIZATIONS),
-            "delays": _delays(self.delays),
-            "search_samples": None if self.search_samples is None else _integer(
+            "criterion_x0": check_choice("criterion_x0", self.criterion_x0, X0_CHOICES),
+            "trend_degree": check_integer("trend_degree", self.trend_degree, 0, MAX_TREND_DEGREE),
+            "refine": check_choice("refine", refine, REFINE_CHOICES),
+            "refine_iterations": check_integer("refine_iterations", self.refine_iterations, 1),
+            "refine_ridge": check_ridges(self.refine_ridge),
+            "center": check_flag("center", self.center),
+            "x0": check_choice("x0", self.x0, X0_CHOICES),
+            "noise_model": check_flag("noise_model", self.noise_model),
+            "regularization": check_choice("regularization", self.regularization, REGULARIZATIONS),
+            "delays": check_delays(self.delays),
+            "search_samples": None if self.search_samples is None else check_integer(
                 "search_samples", self.search_samples, MIN_SEARCH_SAMPLES),
-            "time": _choice("time", self.time, TIMES),
-            "input_hold": _choice("input_hold", self.input_hold, INPUT_HOLDS),
+            "time": check_choice("time", self.time, TIMES),
+            "input_hold": check_choice("input_hold", self.input_hold, INPUT_HOLDS),
+            "reference": check_names("reference", self.reference),
+            "closed_loop": None if self.closed_loop is None else check_choice(
+                "closed_loop", self.closed_loop, CLOSED_LOOP_METHODS),
         }
+        if checked["closed_loop"] == "two-stage" and checked["reference"] is None:
+            raise option_error("closed_loop", "'open' or 'direct' without a reference (the two-stage method "
+                               "needs reference=[names of the reference channels])", self.closed_loop)
         if checked["order"] is not None and checked["nmax"] is not None and checked["order"] > checked["nmax"]:
-            raise _fail("order", f"at most nmax = {checked['nmax']} (the end of the path)", self.order)
+            raise option_error("order", f"at most nmax = {checked['nmax']} (the end of the path)", self.order)
         for name, value in checked.items():
             object.__setattr__(self, name, value)
 
@@ -365,8 +304,9 @@ class IdentifyOptions:
         out = asdict(self)
         if self.omega is not None:
             out["omega"] = [list(pair) for pair in self.omega]
-        if isinstance(self.delays, tuple):
-            out["delays"] = list(self.delays)
+        for name in ("delays", "reference"):
+            if isinstance(out[name], tuple):
+                out[name] = list(out[name])
         return out
 
     @classmethod

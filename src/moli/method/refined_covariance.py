@@ -23,13 +23,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import scipy.linalg
 
 from ..data.iodata import IOData
 from ..errors import DataError
 from ..models.statespace import StateSpaceModel
 from .covariance import long_run_covariance
-from .refinement import OutputErrorProblem, RefinementStart
+from .prediction_error import METHOD as PREDICTION_ERROR, PredictionErrorStart
+from .refinement import RefinementStart
 
 __all__ = ["refined_covariance", "is_refined"]
 
@@ -73,7 +73,9 @@ def refined_covariance(model: StateSpaceModel, data: IOData) -> tuple[np.ndarray
     """
     # the refinement's own start at these matrices: the problem, the initial states at
     # their optimum, the simulation and its residual
-    start = RefinementStart(model, data.remove_means(model.y_offset, model.u_offset), True, 1.0)
+    predictor = model.info.get("refine_method") == PREDICTION_ERROR
+    start = (PredictionErrorStart if predictor else RefinementStart)(
+        model, data.remove_means(model.y_offset, model.u_offset), True, 1.0)
     if not start.stable:
         raise DataError("the covariance of a refined model needs a stable model")
     problem, residual = start.problem, start.residual
@@ -109,23 +111,9 @@ def refined_covariance(model: StateSpaceModel, data: IOData) -> tuple[np.ndarray
     # and the columns back in the parameters' units
     root = (root @ bread) * math.sqrt(N * p / max(N * p - int(kept.sum()), 1)) / norms
     parameters = k - problem.x0_size
-    factor = _matrix_directions(model, problem, root[:, :parameters]).T
-    record = {"method": "output-error refinement, Gauss-Newton sandwich, Newey-West",
+    factor = problem.matrix_changes(model.C, root[:, :parameters]).T
+    record = {"method": ("prediction-error" if predictor else "output-error")
+              + " refinement, Gauss-Newton sandwich, Newey-West",
               "kernel_width": width, "rows": N, "parameters": parameters,
               "rank": int(kept.sum()) - problem.x0_size}
     return factor, record
-
-
-def _matrix_directions(model: StateSpaceModel, problem: OutputErrorProblem, dtheta: np.ndarray) -> np.ndarray:
-    """First-order changes of ``[A, B, C, D]`` (flattened, row-major) for each row of ``dtheta``,
-    the refinement's parameters (read by its own :meth:`OutputErrorProblem.unpack`)."""
-    p = model.p
-    H = scipy.linalg.solve_triangular(np.eye(p) - problem.form.G, np.eye(p), lower=True, unit_diagonal=True)
-    out = []
-    for row in dtheta:
-        # the pieces are linear in the parameters: unpacking a direction gives its dD_o, dB, dG, dF
-        d, _ = problem.unpack(np.concatenate([row, np.zeros(problem.x0_size)]))
-        dC = H @ d.G @ model.C
-        dA = d.D @ model.C + problem.form.D @ dC
-        out.append(np.concatenate([dA.ravel(), d.B.ravel(), dC.ravel(), d.F.ravel()]))
-    return np.array(out).reshape(dtheta.shape[0], -1)

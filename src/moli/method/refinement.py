@@ -23,17 +23,17 @@ accepted only if it lowers ``V`` *and* keeps every pole inside the circle of rad
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Iterator, Sequence
+from typing import Sequence
 
 import numpy as np
 
 from ..data.iodata import IOData
 from ..errors import DataError, OptionError
-from .observer_form import ObserverForm, observer_form
+from .observer_form import observer_form
+from .output_error import OutputErrorProblem
 from .row_blocks import column_norms, tall_factor
 from ..models.delays import shift_inputs
 from ..models.statespace import StateSpaceModel
-from ..models.simulation import free_response, simulate_batch
 
 __all__ = ["RefineResult", "refine", "refine_each"]
 
@@ -67,154 +67,6 @@ class RefineResult:
     cost: float
     iterations: int
     rejected_unstable: int
-
-
-def _sensitivities(
-    A: np.ndarray, C: np.ndarray, signals: np.ndarray
-) -> tuple[np.ndarray, Iterator[tuple[int, np.ndarray]]]:
-    """Responses ``C (qI - A)^-1 e_a v`` for every state ``a`` and signal ``v``, one signal at a time.
-
-    Returns the free responses ``C A^t e_a``, (N, p, n), and an iterator of ``(c,
-    S_c)``, ``S_c[t, :, a]`` the response to signal ``c`` injected into state ``a``
-    (each array valid until the next): the responses to all ``k`` signals at once
-    would hold ``N p n k`` values, many times the record's size.
-    """
-    import scipy.fft  # slow to import: only when refining
-
-    N = signals.shape[0]
-    free = free_response(A, C, N)                     # (N, p, n): C A^t
-    # any length from 2N - 1 on keeps the circular convolution's first N samples
-    # linear; 2N itself can be a slow length (glassfurnace: 2 x 7 x 89)
-    size = scipy.fft.next_fast_len(2 * N - 1, real=True)
-    H = scipy.fft.rfft(free, size, axis=0)            # (F, p, n)
-    V = scipy.fft.rfft(signals, size, axis=0)         # (F, k)
-
-    def responses() -> Iterator[tuple[int, np.ndarray]]:
-        # stored with a stride between states, as one signal's slice of all of them
-        # at once was: the products below then sum in the same order, to the bit
-        buffer = np.zeros(free.shape + (2,))
-        for c in range(signals.shape[1]):
-            # one-step delay of (qI - A)^-1
-            buffer[1:, :, :, 0] = scipy.fft.irfft(H * V[:, c, None, None], size, axis=0)[: N - 1]
-            yield c, buffer[:, :, :, 0]
-
-    return free, responses()
-
-
-class OutputErrorProblem:
-    """Residuals and Jacobian of the output-error criterion in observer-form parameters."""
-
-    def __init__(
-        self, form: ObserverForm, u: np.ndarray, y: np.ndarray, fit_x0: bool, starts: tuple[int, ...] = (0,)
-    ) -> None:
-        self.form = form
-        # each segment is simulated from its own initial state, all of them estimated
-        self.bounds = tuple(zip(starts, (*starts[1:], y.shape[0])))
-        self.x0_size = form.B.shape[0] * len(starts)
-        self.feedthrough = bool(np.any(form.F != 0))
-        self.u, self.y = u, y
-        self.n, self.p, self.m = form.B.shape[0], y.shape[1], u.shape[1]
-        norms = np.linalg.norm(y, axis=0)
-        # a constant (zero after centring) output has no scale of its own: unit weight
-        self.weights = 1.0 / np.where(norms > 0, norms, 1.0)
-        self.fit_x0 = fit_x0
-        self.lower = np.tril_indices(self.p, -1)
-
-    def pack(self, form: ObserverForm, x0: np.ndarray) -> np.ndarray:
-        parts = [form.D.ravel(), form.B.ravel(), form.G[self.lower]]
-        if self.feedthrough:
-            parts.append(form.F.ravel())
-        if self.fit_x0:
-            parts.append(x0)
-        return np.concatenate(parts)
-
-    def unpack(self, theta: np.ndarray) -> tuple[ObserverForm, np.ndarray]:
-        n, p, m = self.n, self.p, self.m
-        D = theta[: n * p].reshape(n, p)
-        B = theta[n * p : n * p + n * m].reshape(n, m)
-        G = np.zeros((p, p))
-        count = len(self.lower[0])
-        G[self.lower] = theta[n * p + n * m : n * p + n * m + count]
-        at = n * p + n * m + count
-        F = np.zeros((p, m))
-        if self.feedthrough:
-            F = theta[at : at + p * m].reshape(p, m)
-            at += p * m
-        x0 = theta[at:] if self.fit_x0 else np.zeros(self.x0_size)
-        return ObserverForm(self.form.A_D, self.form.C_D, D, B, G, F), x0
-
-    def simulate(self, theta: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, ...], np.ndarray]:
-        form, x0 = self.unpack(theta)
-        A, B, C = form.matrices()
-        starts = x0.reshape(-1, self.n)
-        yhat = np.concatenate([simulate_batch(A[None], B[None], C[None], self.u[a:b], start[None])[0]
-                               for (a, b), start in zip(self.bounds, starts)]) + self.u @ form.F.T
-        return yhat, (A, B, C), form.G
-
-    def residual(self, yhat: np.ndarray) -> np.ndarray:
-        return ((self.y - yhat) * self.weights).ravel()
-
-    def initial_state_columns(self, theta: np.ndarray) -> np.ndarray:
-        """d yhat / d x0, weighted, shape (N p, n segments): the Jacobian's last columns."""
-        form, _ = self.unpack(theta)
-        A, _, C = form.matrices()
-        return (self._free(A, C) * self.weights[None, :, None]).reshape(-1, self.x0_size)
-
-    def _free(self, A: np.ndarray, C: np.ndarray) -> np.ndarray:
-        """d yhat / d x0 unweighted, (N, p, n segments): each segment's free response in its own columns."""
-        if len(self.bounds) == 1:
-            return free_response(A, C, self.y.shape[0])
-        free = np.zeros((self.y.shape[0], self.p, self.x0_size))
-        for i, (a, b) in enumerate(self.bounds):
-            free[a:b, :, i * self.n : (i + 1) * self.n] = free_response(A, C, b - a)
-        return free
-
-    def jacobian(self, theta: np.ndarray, yhat: np.ndarray, residual: np.ndarray) -> np.ndarray:
-        """``[d yhat / d theta, residual]``, weighted, shape (N p, parameters + 1).
-
-        Built in place, one signal's sensitivities at a time, with the residual as its
-        last column: the record-long matrix is the least-squares problem's, held once.
-        """
-        n, p, m = self.n, self.p, self.m
-        form, _ = self.unpack(theta)
-        A, _, C = form.matrices()
-        yx = yhat - self.u @ form.F.T                   # C x: the part the state produces
-        signals = np.concatenate([self.u, yx], axis=1)
-        N = self.y.shape[0]
-        H = np.linalg.inv(np.eye(p) - form.G)
-        pairs = list(zip(*self.lower))
-        # columns: D (n p), B (n m), G's lower part, F (p m) with feedthrough, x0 (n per segment)
-        at_g = n * p + n * m
-        at_f = at_g + len(pairs)
-        count = at_f + (p * m if self.feedthrough else 0) + (self.x0_size if self.fit_x0 else 0)
-        augmented = np.empty((N, p, count + 1))
-        if self.fit_x0:
-            augmented[:, :, count - self.x0_size : count] = 0.0   # a segment's x0 moves that segment alone
-        # the sensitivities restart with the state at each segment (its x0 is a parameter of its own)
-        for segment, (a, b) in enumerate(self.bounds):
-            free, responses = _sensitivities(A, C, signals[a:b])
-            rows = augmented[a:b]
-            for c, S_c in responses:
-                if c < m:                               # B[a, c]: input u_c into state a
-                    rows[:, :, n * p + c : at_g : m] = S_c
-                    continue
-                j = c - m
-                rows[:, :, j : n * p : p] = S_c         # D[a, j]: signal yhat_j into state a
-                for q, (i, jj) in enumerate(pairs):
-                    if jj == j:                         # dC x = H e_i (C x)_j, and through D
-                        direct = np.outer(yx[a:b, j], H[:, i])
-                        rows[:, :, at_g + q] = direct + np.einsum("tpa,a->tp", S_c, form.D @ H[:, i])
-            if self.fit_x0:
-                at_x0 = count - self.x0_size + segment * n
-                rows[:, :, at_x0 : at_x0 + n] = free
-        if self.feedthrough:                       # F[i, j]: u_j straight to y_i
-            eye = np.eye(p)
-            for i in range(p):                     # one output at a time: N p m values, not N p p m
-                augmented[:, i, at_f : at_f + p * m] = (eye[i, None, :, None] * self.u[:, None, :]).reshape(N, p * m)
-        augmented[:, :, :count] *= self.weights[None, :, None]
-        augmented = augmented.reshape(N * p, count + 1)
-        augmented[:, count] = residual
-        return augmented
 
 
 def refine(
@@ -316,16 +168,15 @@ class RefinementStart:
 
     def __init__(self, model: StateSpaceModel, data: IOData, fit_x0: bool, max_radius: float) -> None:
         self.model, self.data, self.fit_x0, self.max_radius = model, data, fit_x0, max_radius
-        form = observer_form(model)
         # a model with input delays is refined on the inputs as its simulation shifts them
         # each segment from its own initial state, its inputs shifted within it
         u = np.concatenate([shift_inputs(data.u[a:b], model.input_delays) for a, b in data.bounds])
-        problem = self.problem = OutputErrorProblem(form, u, data.y, fit_x0, data.segment_starts)
-        self.theta0 = problem.pack(form, np.zeros(problem.x0_size))
+        problem, self.theta0 = self.make_problem(model, u, data)
+        self.problem = problem
         theta = self.theta0.copy()
         yhat, _, _ = problem.simulate(theta)
         residual = problem.residual(yhat)
-        self.stable = bool(np.max(np.abs(model.poles()), initial=0.0) < max_radius)
+        self.stable = self.starts_stable(model)
         if fit_x0 and self.stable:
             # start from the best initial state for the start model (a linear problem)
             theta[-problem.x0_size :] = np.linalg.lstsq(problem.initial_state_columns(theta), residual, rcond=None)[0]
@@ -334,6 +185,24 @@ class RefinementStart:
         self.theta, self.yhat, self.residual = theta, yhat, residual
         self.cost = float(residual @ residual)
         self._linearized: tuple[np.ndarray, np.ndarray | None] | None = None
+
+    def make_problem(self, model: StateSpaceModel, u: np.ndarray, data: IOData) -> tuple[OutputErrorProblem, np.ndarray]:
+        """The problem refined and its parameters at the start (initial states zero)."""
+        form = observer_form(model)
+        problem = OutputErrorProblem(form, u, data.y, self.fit_x0, data.segment_starts)
+        return problem, problem.pack(form, np.zeros(problem.x0_size))
+
+    def starts_stable(self, model: StateSpaceModel) -> bool:
+        """Whether the start is inside the bound (an unstable start is returned unchanged)."""
+        return bool(np.max(np.abs(model.poles()), initial=0.0) < self.max_radius)
+
+    def finish(self, model: StateSpaceModel, theta: np.ndarray, accepted: int,
+               info: dict[str, object]) -> StateSpaceModel:
+        """The refined model at ``theta`` (the start's matrices bit for bit when no step was accepted)."""
+        A, B, C, F, _ = self.problem.model_matrices(theta)
+        if accepted == 0:
+            A, B, C, F = model.A, model.B, model.C, model.D
+        return model.with_matrices(A, B, C, F, info, model.divisors)
 
     def linearize(self, theta: np.ndarray, yhat: np.ndarray, residual: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """The Jacobian's column norms and the triangular factor ``T`` of ``[jac, residual]``
@@ -389,8 +258,8 @@ class RefinementStart:
                     rhs.append(-penalty * scale * (theta - theta0))
                 step = np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)[0] / norms
                 trial = theta + step
-                new_yhat, (A, _, _), _ = problem.simulate(trial)
-                if np.max(np.abs(np.linalg.eigvals(A))) >= self.max_radius:
+                new_yhat, _, _ = problem.simulate(trial)
+                if problem.radius(trial) >= self.max_radius:
                     rejected += 1
                     damping *= 10
                     continue
@@ -406,14 +275,10 @@ class RefinementStart:
                 damping *= 10
             if not improved or gain < tolerance:
                 break
-        form_end, x0 = problem.unpack(theta)
-        A, B, C = form_end.matrices()
-        F = form_end.F
-        if accepted == 0:  # nothing accepted: keep the start's matrices bit for bit
-            A, B, C, F = model.A, model.B, model.C, model.D
+        _, x0 = problem.unpack(theta)
         info = dict(model.info)
         info.update({"refined": True, "refine_iterations": accepted, "refine_ridge": ridge,
                      "refine_cost_start": cost_start, "refine_cost": cost})
-        refined = model.with_matrices(A, B, C, F, info, model.divisors)
+        refined = self.finish(model, theta, accepted, info)
         return RefineResult(refined, x0 if data.n_segments == 1 else x0.reshape(data.n_segments, -1),
                             cost_start, cost, accepted, rejected)

@@ -79,6 +79,18 @@ class IdentificationResult:
                     "best validation error")
         return f"lowest order within {opts.order_tolerance:g} point of the best mean validation VAF"
 
+    @property
+    def loop_method(self) -> str | None:
+        """How a closed-loop record was identified and why, in words; None for an open-loop record
+        identified as such (docs/closed_loop.md)."""
+        loop = self.model.info.get("closed_loop", {})
+        if loop.get("method", "open") == "open" and not loop.get("feedback"):
+            return None
+        first = ("; first stage: FIR of lags 0 to {}, input variance explained {}".format(
+            loop["fir_lags"], ", ".join(f"{name} {share:.0%}" for name, share in loop["explained_share"].items()))
+            if "fir_lags" in loop else "")
+        return f"{loop['method']} method: {loop['why']}{first}"
+
     def summary(self) -> str:
         """A readable table of the greedy path and the selection."""
         names = self.estimation.output_names
@@ -119,11 +131,15 @@ class IdentificationResult:
             lines.append("its filters per output (wc, zeta): " + ", ".join(
                 f"y{j + 1} ({wc:.4g}, {zeta:.3g})" for j, (wc, zeta) in enumerate(self.selected.output_etas)
             ))
+        if self.loop_method is not None:
+            lines.append(f"closed loop: {self.loop_method}")
         noise = self.model.info.get("noise_model", {})
         if self.model.K is not None:
             std = ", ".join(f"{v:.4g}" for v in np.sqrt(np.diag(self.model.noise_cov)))
             how = ("K = 0: the simulation error is white (likelihood-ratio test)"
                    if noise.get("start") == "white simulation error"
+                   else "Kalman gain K estimated jointly with the model (direct method)"
+                   if self.model.info.get("refine_method") == "prediction error"
                    else "Kalman gain K from the estimation residuals")
             lines.append(f"noise model: {how}, innovation std {std}")
         elif noise.get("method") == "none":

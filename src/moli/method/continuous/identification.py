@@ -33,7 +33,7 @@ NEGLIGIBLE_VAF = 0.01
 # keep their defaults, so that none is silently ignored.
 DISCRETE_ONLY = ("filter_grid", "iterations", "seed", "output_filters", "feedthrough", "max_radius",
                  "criterion_x0", "trend_degree", "refine", "refine_iterations", "refine_ridge", "x0",
-                 "noise_model", "regularization", "delays", "search_samples")
+                 "noise_model", "regularization", "delays", "search_samples", "reference", "closed_loop")
 
 
 @dataclass
