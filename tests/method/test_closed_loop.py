@@ -11,7 +11,7 @@ import moli
 from moli.method.output_error import OutputErrorProblem
 from moli.method.prediction_error import PredictionErrorStart, prediction_error_refine
 from moli.method.reference_projection import fit_projection
-from systems_util import PI_LOOP_GAIN as GAIN, pi_loop
+from systems_util import PI_LOOP_A, PI_LOOP_B, PI_LOOP_GAIN as GAIN, pi_loop
 
 def plant_only(data: moli.IOData) -> moli.IOData:
     return moli.IOData(data.y, data.u[:, :2], input_names=["u1", "u2"])
@@ -140,3 +140,20 @@ def test_prediction_error_recovers_an_innovations_form_gain():
     assert abs(result.model.A[0, 0] - 0.8) < 0.05
     assert abs(result.model.K[0, 0] * result.model.C[0, 0] - 0.6) < 0.05
     assert abs(np.sqrt(result.model.noise_cov[0, 0]) - 0.5) < 0.02
+
+
+def test_two_stage_gain_bands_hold_the_true_gain():
+    # The FIR's own estimation error widens the plant's bands (docs/closed_loop.md §3): without
+    # it in the covariance these bands held the truth at 0.57 of the points (30 records),
+    # with it 0.87. 12 records x 20 points: 0.75 is three binomial standard errors below
+    # 0.87 even for points correlated in pairs.
+    omega = np.array([1e-3, 0.03, 0.1, 0.3, 1.0])
+    z = np.exp(1j * omega)
+    truth = np.array([np.abs(np.linalg.solve(zk * np.eye(2) - PI_LOOP_A, PI_LOOP_B)) for zk in z])
+    held = []
+    for seed in range(12):
+        model = quiet_identify(pi_loop(seed, colour=0.0), reference=["r1", "r2"], order=2).model
+        lower, upper = model.magnitude_bands(omega)
+        held.append((lower <= truth) & (truth <= upper))
+        assert model.info["covariance"]["first_stage"]
+    assert np.mean(held) >= 0.75

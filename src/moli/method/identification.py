@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 import warnings
 from dataclasses import replace
+from functools import partial
 from typing import Any, Callable
 
 import numpy as np
@@ -18,7 +19,7 @@ from ..validation.feedback import feedback_check, usable_lags
 from .estimation import check_sample_count
 from .interruption import post_path_phases
 from .long_records import reestimate, search_window
-from .records import check_reach, check_scales, input_delays, long_segments, shifted_inputs
+from .records import check_reach, check_scales, input_delays, long_segments, shifted_inputs, short_segments
 from .noise_model import estimate_noise_model
 from .options import IdentifyOptions
 from .reference_projection import ReferenceProjection, two_stage_records, without_reference
@@ -151,9 +152,15 @@ def identify(
                               "would predict each output from the input its controller made of it; use the "
                               "two-stage method (reference=[...]) for a plant with direct feedthrough")
         opts = opts.replace(feedthrough=False)
-    projection = None
+    projection = first = None
     if loop == "two-stage":
-        estimation, validation, projection = two_stage_records(estimation, validation, opts.reference)
+        if opts.delays != 0:
+            raise OptionError("the two-stage method (reference=...) takes no input delays yet: leave delays at 0 "
+                              "or use closed_loop='direct'")
+        estimation, validation, projection, first = two_stage_records(estimation, validation, opts.reference)
+        # the first stage on the samples the search and the refinement keep, for the covariance
+        first = first.rows(estimation.bounds, short_segments(estimation, opts.path_end(p), opts.feedthrough
+                                                             is not False), opts.search_samples)
     elif opts.reference:        # a method that does not use the references: the plant inputs alone
         estimation, validation = (without_reference(record, opts.reference) for record in (estimation, validation))
     estimation = long_segments(estimation, opts.path_end(data.p), opts.feedthrough is not False)
@@ -262,8 +269,10 @@ def identify(
                 # each ridge from the unrefined model: the best on validation stays; then the free
                 # refinement of each other list the greedy step compared at this order, where it
                 # is better by more than a paired standard error (docs/method.md §12)
-                for candidate in refined(path[selected], ridges):
-                    if candidate.mean_vaf > path[selected].mean_vaf:
+                # two-stage: the free output-error estimate is the consistent one (the error
+                # G (u - u_hat) + v is coloured, which biases the least squares): kept
+                for candidate in refined(path[selected], ridges if first is None else (0.0,)):
+                    if first is not None or candidate.mean_vaf > path[selected].mean_vaf:
                         path[selected] = candidate
                 for sibling in [] if interrupted else siblings(search, path, selected):
                     for candidate in refined(sibling, ridges[:1]):
@@ -282,7 +291,9 @@ def identify(
             stage = begin("covariance")
             kept = path[selected].model
             path[selected] = replace(path[selected], model=_attached(
-                estimate_covariance, "covariance", kept, searched if is_refined(kept) else fitted))
+                estimate_covariance if first is None else partial(estimate_covariance, first_stage=first),
+                "covariance", kept,
+                searched if is_refined(kept) or first is not None else fitted))
             if opts.noise_model and loop != "direct":
                 stage = begin("noise model")
                 path[selected] = replace(path[selected], model=_attached(estimate_noise_model, "noise_model",

@@ -44,19 +44,10 @@ def long_segments(data: IOData, nmax: int, feedthrough: bool) -> IOData:
     short for). Of several, a segment that cannot hold every list up to ``nmax`` on its
     own is dropped with a :class:`DataQualityWarning`; none left is a :class:`DataError`.
     """
-    if data.n_segments == 1:
-        return data
-    p = data.p
-    # the list of degree nmax needing most samples: its whole excess on the last output
-    largest: Indices = (1,) * (p - 1) + (max(nmax, p) - p + 1,)
-    short = []
-    for i, (start, stop) in enumerate(data.bounds):
-        try:
-            check_sample_count(stop - start, largest, data.m, feedthrough)
-        except DataError:
-            short.append(i)
+    short = short_segments(data, nmax, feedthrough)
     if not short:
         return data
+    largest = _largest_list(data.p, nmax)
     kept = [segment for i, segment in enumerate(data.segments) if i not in short]
     lengths = ", ".join(f"{i} ({data.bounds[i][1] - data.bounds[i][0]} samples)" for i in short)
     if not kept:
@@ -65,6 +56,25 @@ def long_segments(data: IOData, nmax: int, feedthrough: bool) -> IOData:
     warnings.warn(f"estimation segments {lengths} are too short for the list {list(largest)} "
                   f"(order {sum(largest)}) and were left out", DataQualityWarning, stacklevel=3)
     return merge(kept)
+
+
+def _largest_list(p: int, nmax: int) -> Indices:
+    """The list of degree nmax needing most samples: its whole excess on the last output."""
+    return (1,) * (p - 1) + (max(nmax, p) - p + 1,)
+
+
+def short_segments(data: IOData, nmax: int, feedthrough: bool) -> list[int]:
+    """Positions of the segments :func:`long_segments` leaves out (none of a one-segment record)."""
+    if data.n_segments == 1:
+        return []
+    largest = _largest_list(data.p, nmax)
+    short = []
+    for i, (start, stop) in enumerate(data.bounds):
+        try:
+            check_sample_count(stop - start, largest, data.m, feedthrough)
+        except DataError:
+            short.append(i)
+    return short
 
 
 def shifted_inputs(data: IOData, delays: tuple[int, ...]) -> IOData:

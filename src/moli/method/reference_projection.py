@@ -35,7 +35,7 @@ from ..data.iodata import IOData
 from ..errors import DataError, WeakReferenceWarning
 from .row_blocks import BLOCK_ROWS, streamed_factor
 
-__all__ = ["ReferenceProjection", "fit_projection", "two_stage_records", "without_reference"]
+__all__ = ["FirstStage", "ReferenceProjection", "fit_projection", "two_stage_records", "without_reference"]
 
 # Longest FIR of the first stage: 128 samples cover the loop's settling on the records
 # moli is used on; the factor holds (1 + r (L + 1) + m)^2 values.
@@ -46,6 +46,31 @@ ROWS_PER_COEFFICIENT = 10
 # An input of which the references explain less than this share of the variance is
 # driven by the noise, not the references: the second stage then has little to go on.
 WEAK_SHARE = 0.05
+
+
+@dataclass(frozen=True)
+class FirstStage:
+    """The first stage's regressors and residuals on the samples of a record, as the covariance
+    of the second stage needs them: the plant estimate depends on the FIR estimate through
+    ``u_hat``, and the FIR's estimation error widens the plant's bands (docs/closed_loop.md §3).
+
+    Attributes
+    ----------
+    design : ndarray, shape (N, 1 + r (L + 1))
+        The FIR's regressors per sample.
+    residual : ndarray, shape (N, m)
+        Each plant input less its projection.
+    """
+
+    design: np.ndarray
+    residual: np.ndarray
+
+    def rows(self, bounds: tuple[tuple[int, int], ...], left_out: list[int], samples: int | None) -> "FirstStage":
+        """The rows of the segments not ``left_out``, then the first ``samples`` of them (all when None):
+        the samples :func:`moli.method.records.long_segments` and the search window keep."""
+        kept = np.concatenate([np.arange(a, b) for i, (a, b) in enumerate(bounds) if i not in left_out])
+        kept = kept[:samples] if samples is not None else kept
+        return FirstStage(self.design[kept], self.residual[kept])
 
 
 @dataclass(frozen=True)
@@ -74,10 +99,17 @@ class ReferenceProjection:
 
     def project(self, data: IOData) -> IOData:
         """``data`` with its plant inputs replaced by their projections and the references dropped."""
+        design, plant = self._design(data)
+        return _with_inputs(data, design @ self.coefficients, plant)
+
+    def first_stage(self, data: IOData) -> FirstStage:
+        """The regressors and residuals of the first stage on ``data`` (the record it was fitted on)."""
+        design, plant = self._design(data)
+        return FirstStage(design, data.u[:, plant] - design @ self.coefficients)
+
+    def _design(self, data: IOData) -> tuple[np.ndarray, list[int]]:
         r, plant = _columns(data, self.reference)
-        uhat = np.concatenate([_lagged(r[a:b], self.lags, 0, b - a) @ self.coefficients
-                               for a, b in data.bounds])
-        return _with_inputs(data, uhat, plant)
+        return np.concatenate([_lagged(r[a:b], self.lags, 0, b - a) for a, b in data.bounds]), plant
 
     def to_dict(self) -> dict[str, object]:
         """What a model's ``info["closed_loop"]`` records of the first stage."""
@@ -189,11 +221,13 @@ def choose_lags(residual: Callable[[int], np.ndarray], candidates: list[int], N:
 
 
 def two_stage_records(estimation: IOData, validation: IOData,
-                      reference: tuple[str, ...]) -> tuple[IOData, IOData, ReferenceProjection]:
-    """Both records with their inputs projected on the references; the projection is fitted
-    on ``estimation`` only and applied to ``validation`` as it is."""
+                      reference: tuple[str, ...]) -> tuple[IOData, IOData, ReferenceProjection, FirstStage]:
+    """Both records with their inputs projected on the references (the projection is fitted
+    on ``estimation`` only and applied to ``validation`` as it is), and the first stage on
+    the estimation record."""
     projection = fit_projection(estimation, reference)
-    return projection.project(estimation), projection.project(validation), projection
+    return (projection.project(estimation), projection.project(validation), projection,
+            projection.first_stage(estimation))
 
 
 def without_reference(data: IOData, reference: tuple[str, ...]) -> IOData:

@@ -28,6 +28,8 @@ from ..data.iodata import IOData
 from ..errors import DataError
 from ..models.statespace import StateSpaceModel
 from .covariance import long_run_covariance
+from ..models.simulation import simulate_batch
+from .reference_projection import FirstStage
 from .prediction_error import METHOD as PREDICTION_ERROR, PredictionErrorStart
 from .refinement import RefinementStart
 
@@ -45,7 +47,8 @@ def is_refined(model: StateSpaceModel) -> bool:
     return bool(model.info.get("refined")) and model.info.get("refine_iterations", 0) > 0
 
 
-def refined_covariance(model: StateSpaceModel, data: IOData) -> tuple[np.ndarray, dict[str, object]]:
+def refined_covariance(model: StateSpaceModel, data: IOData,
+                       first_stage: FirstStage | None = None) -> tuple[np.ndarray, dict[str, object]]:
     """``cov_factor`` of a refined model from its output-error problem on ``data``, and its record.
 
     Parameters
@@ -57,6 +60,10 @@ def refined_covariance(model: StateSpaceModel, data: IOData) -> tuple[np.ndarray
         The record it was refined on, raw or centred (offsets handled as
         :func:`moli.compare`). Each segment has its own initial state, and no lag of the
         long-run covariance spans a boundary.
+    first_stage : FirstStage, optional
+        The two-stage method's first stage on the samples of ``data``, whose inputs are its
+        projections: the scores are corrected for the FIR's estimation error (the
+        two-step estimator's sandwich, docs/closed_loop.md §3).
 
     Returns
     -------
@@ -102,6 +109,8 @@ def refined_covariance(model: StateSpaceModel, data: IOData) -> tuple[np.ndarray
         raise DataError("the refined model's simulation error does not depend on its parameters on this record")
     kept = values > values[0] * NULL_DIRECTION
     scores = np.einsum("tpk,tp->tk", (jac / norms).reshape(N, p, k), residual.reshape(N, p))
+    if first_stage is not None:
+        scores -= _first_stage_scores(model, data, first_stage, jac / norms, problem.weights)
     long_run, width = long_run_covariance(scores, data.segment_starts[1:])
     # root (R^T R)^+ with R^T R = V diag(values^2) V^T; a square root of S from its eigenvalues
     eig, vectors = np.linalg.eigh(long_run)
@@ -116,4 +125,37 @@ def refined_covariance(model: StateSpaceModel, data: IOData) -> tuple[np.ndarray
               + " refinement, Gauss-Newton sandwich, Newey-West",
               "kernel_width": width, "rows": N, "parameters": parameters,
               "rank": int(kept.sum()) - problem.x0_size}
+    if first_stage is not None:
+        record["first_stage"] = "FIR estimation error included"
     return factor, record
+
+
+def _first_stage_scores(model: StateSpaceModel, data: IOData, first_stage: FirstStage, jac: np.ndarray,
+                        weights: np.ndarray) -> np.ndarray:
+    """What the FIR's estimation error adds to each sample's score, (N, k).
+
+    Linearized, ``theta_hat - theta = bread sum_t (s_t - P (X^T X)^-1 X_t^T w_t)``: ``P = J^T J_beta``
+    with ``J_beta`` the weighted response of the outputs to each FIR coefficient (the model
+    driven by that regressor, centred like the inputs, through its input), ``X`` the FIR's
+    regressors and ``w`` its residuals. With ``X = Q R``, ``(X^T X)^-1 X_t^T = R^-1 Q_t^T``.
+    """
+    design, residual = first_stage.design, first_stage.residual
+    N, q = design.shape
+    n, p = model.n, model.p
+    centred = design - design.mean(axis=0)       # the intercept moves no centred input
+    Q, R = np.linalg.qr(design)
+    pinv_R = np.linalg.pinv(R)                   # references may be collinear: a rank-deficient R
+    A, C = np.broadcast_to(model.A, (q, n, n)), np.broadcast_to(model.C, (q, p, n))
+    columns = np.arange(q)
+    out = np.zeros((N, jac.shape[1]))
+    for j in range(model.m):
+        through = np.zeros((q, n, q))            # model i takes regressor i through input j
+        through[columns, :, columns] = model.B[:, j]
+        response = np.empty((N, p, q))
+        for a, b in data.bounds:                 # each segment from rest, as its inputs
+            response[a:b] = simulate_batch(A, through, C, centred[a:b]).transpose(1, 2, 0)
+        response += model.D[None, :, j, None] * centred[:, None, :]
+        response *= weights[None, :, None]
+        P = jac.T @ response.reshape(N * p, q)
+        out += (Q * residual[:, j : j + 1]) @ (P @ pinv_R).T
+    return out

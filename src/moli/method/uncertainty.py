@@ -21,6 +21,7 @@ from .row_blocks import WHOLE_ROWS
 from .rows import check_regression_rows, regression_rows, row_breaks, row_count
 from .filters import divisors
 from .observer_form import ObserverForm, observer_form
+from .reference_projection import FirstStage
 from .refined_covariance import is_refined, refined_covariance
 
 __all__ = ["estimate_covariance"]
@@ -38,7 +39,7 @@ def _feedthrough_rows(model: StateSpaceModel, form: ObserverForm) -> np.ndarray:
     return np.any(np.abs(F) > bound, axis=1)
 
 
-def estimate_covariance(model: StateSpaceModel, data: IOData) -> StateSpaceModel:
+def estimate_covariance(model: StateSpaceModel, data: IOData, first_stage: FirstStage | None = None) -> StateSpaceModel:
     """A copy of ``model`` with the covariance of its matrices from its least-squares problems on ``data``.
 
     Each output's problem is rebuilt with the model's structure and filters, its
@@ -63,6 +64,11 @@ def estimate_covariance(model: StateSpaceModel, data: IOData) -> StateSpaceModel
         The estimation record, raw or centred (offsets handled as :func:`moli.compare`);
         each segment's problems start from zero filter states, and the long-run
         covariance takes no lag across a boundary.
+
+    first_stage : FirstStage, optional
+        For a model of the two-stage closed-loop method: its first stage on ``data``'s
+        samples; the covariance is then the refinement's sandwich with the FIR's
+        estimation error included (docs/closed_loop.md §3).
 
     Returns
     -------
@@ -94,8 +100,8 @@ def estimate_covariance(model: StateSpaceModel, data: IOData) -> StateSpaceModel
         raise DataError("the covariance needs a MOLI model that carries its indices and filter polynomials "
                         "(from moli.estimate or moli.identify)")
     u, y = deviations(model, data)
-    if is_refined(model):
-        factor, record = refined_covariance(model, data)
+    if is_refined(model) or first_stage is not None:
+        factor, record = refined_covariance(model, data, first_stage)
         attached = copy.deepcopy(model)
         attached.cov_factor, attached.info["covariance"] = factor, record
         return attached
