@@ -16,12 +16,15 @@ prediction-error estimate. Unlike an output-error model it stays consistent unde
 feedback, provided the innovations form can describe the output noise (the direct method,
 Ljung 1999 §13.4; docs/closed_loop.md).
 
-The starts are the model with its noise model and without it (``K = 0``: the
-output-error predictor); the lower prediction error is kept. Every step keeps both the predictor ``A - K C`` and the model
+The starts are the model with its noise model, without it (``K = 0``: the output-error
+predictor) and with ``K = D_o`` (the predictor of MOLI's least squares, whose poles are the
+filter's); the lowest prediction error is kept. Every step keeps both the predictor ``A - K C`` and the model
 ``A`` within the radius bound.
 """
 
 from __future__ import annotations
+
+import copy
 
 import numpy as np
 import scipy.linalg
@@ -163,11 +166,14 @@ def prediction_error_refine(model: StateSpaceModel, data: IOData, *, iterations:
     """
     if (data.p, data.m) != (model.p, model.m):
         raise DataError(f"model has {model.p} outputs and {model.m} inputs, data {data.p} and {data.m}")
-    # from the model's noise model, and from none (the output-error predictor): a noise model
-    # whose predictor sits at the radius bound leaves no room for steps, and the two starts
-    # can lead to different minima; the lower criterion is kept
-    starts = [model] if model.K is None else [
-        model, model.with_matrices(model.A, model.B, model.C, model.D, dict(model.info), model.divisors)]
+    # from the model's noise model, from none (the output-error predictor) and from the
+    # predictor of MOLI's own least squares (K = D_o: the filter's poles): a noise model whose
+    # predictor sits at the radius bound leaves no room for steps, and the starts can lead to
+    # different minima; the lower criterion is kept
+    bare = model.with_matrices(model.A, model.B, model.C, model.D, dict(model.info), model.divisors)
+    own = copy.deepcopy(bare)
+    own.K = observer_form(model).D          # the predictor A_D: the filters' own poles, always stable
+    starts = [bare, own] if model.K is None else [model, bare, own]
     results = [PredictionErrorStart(start, data, True, max_radius).descend(0.0, iterations, tolerance)
                for start in starts]
     moved = [result for result in results if result.iterations > 0] or results[:1]
