@@ -159,7 +159,7 @@ def main() -> None:
     seconds = {}
     if not args.skip_a:
         started = time.perf_counter()
-        for found in Parallel(n_jobs=args.jobs)(delayed(cases.pi_seed)(seed, noise, methods)
+        for found in Parallel(n_jobs=args.jobs)(delayed(cases.quiet(cases.pi_seed))(seed, noise, methods)
                                                 for noise in cases.NOISES for seed in range(args.seeds)):
             rows += found
         seconds["A"] = time.perf_counter() - started
@@ -171,7 +171,7 @@ def main() -> None:
         print(flush=True)
     if not args.skip_b:
         started = time.perf_counter()
-        for found in Parallel(n_jobs=args.jobs)(delayed(cases.rotor_seed)(seed, methods)
+        for found in Parallel(n_jobs=args.jobs)(delayed(cases.quiet(cases.rotor_seed))(seed, methods)
                                                 for seed in range(args.rotor_seeds)):
             rows += found
         seconds["B"] = time.perf_counter() - started
