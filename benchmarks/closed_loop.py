@@ -53,6 +53,11 @@ def fits(rows: list[dict], **match: object) -> list[dict]:
     return [row for row in rows if all(row.get(key) == value for key, value in match.items())]
 
 
+def order_span(orders: list[int]) -> str:
+    """``"median [min-max]"`` of the selected orders."""
+    return f"{np.median(orders):g} [{min(orders)}-{max(orders)}]"
+
+
 def pi_table(rows: list[dict], methods: list[str]) -> list[str]:
     """Part A: per noise type and method, the gain error against the open-loop baseline,
     the coverage, the order and the time."""
@@ -71,15 +76,15 @@ def pi_table(rows: list[dict], methods: list[str]) -> list[str]:
                 lines.append(f"| {noise} | {method} | 0 ({failed}) | | | | | | | | | {reason} |")
                 continue
             errors = np.array([r["static_gain_error"] for r in ok])
-            orders = np.array([r["order"] for r in ok])
+            orders = [r["order"] for r in ok]
             cover = [r["coverage"] for r in ok if r["coverage"] is not None]
             static = [r["coverage_static"] for r in ok if r["coverage_static"] is not None]
             infos = sorted({str(r["method_info"]) for r in ok})
             lines.append(
                 f"| {noise} | {method} | {len(ok)} ({failed}) | {np.median(errors):.4f} | {errors.max():.4f} | "
                 f"{np.median(errors) / baseline:.2f} | {np.mean(cover) if cover else np.nan:.3f} | "
-                f"{np.mean(static) if static else np.nan:.3f} | {np.median(orders):g} "
-                f"[{orders.min()}-{orders.max()}] | {sum(not r['stable'] for r in ok)} | "
+                f"{np.mean(static) if static else np.nan:.3f} | {order_span(orders)} | "
+                f"{sum(not r['stable'] for r in ok)} | "
                 f"{np.median([r['seconds'] for r in ok]):.2f} | {', '.join(infos)} |")
     return lines
 
@@ -120,8 +125,8 @@ def rotor_tables(rows: list[dict], methods: list[str]) -> list[str]:
     if ok_open:
         orders = [b["order"] for b in ok_open]
         lines.append(f"| none | open | {len(ok_open)} | open VAF {np.median([b['vaf'] for b in ok_open]):.2f} | | "
-                     f"open fit {np.median([b['fit'] for b in ok_open]):.2f} | | {np.median(orders):g} "
-                     f"[{min(orders)}-{max(orders)}] | | | {np.median([b['seconds'] for b in ok_open]):.2f} |")
+                     f"open fit {np.median([b['fit'] for b in ok_open]):.2f} | | {order_span(orders)} | | | "
+                     f"{np.median([b['seconds'] for b in ok_open]):.2f} |")
     for (controller, method), values in diffs.items():
         found = [r for r in fits(rows, controller=controller, method=method) if not r["error"]]
         if not values:
@@ -132,8 +137,8 @@ def rotor_tables(rows: list[dict], methods: list[str]) -> list[str]:
         saturated = np.median([r["saturated_s"] for r in found], axis=0)
         lines.append(
             f"| {controller} | {method} | {len(values)} | {np.median(vaf):+.2f} | {vaf.min():+.2f} | "
-            f"{np.median(fit):+.2f} | {np.sum(vaf >= -2)}/{len(vaf)} | {np.median(orders):g} "
-            f"[{min(orders)}-{max(orders)}] | {sum(r['left_envelope'] for r in found)} | "
+            f"{np.median(fit):+.2f} | {np.sum(vaf >= -2)}/{len(vaf)} | {order_span(orders)} | "
+            f"{sum(r['left_envelope'] for r in found)} | "
             f"{saturated[0]:.1f} {saturated[1]:.1f} | {np.median([r['seconds'] for r in found]):.2f} |")
     return lines
 
