@@ -31,7 +31,9 @@ held out), as is the open-loop experiment of the same seed; every model is score
         [--methods open,closed_default,two_stage,direct] [--jobs 2] [--out DIR] [--skip-a] [--skip-b]
 
 Prints markdown tables; with ``--out DIR`` writes ``DIR/closed_loop.json`` with a row per
-seed, part, noise or controller, and method.
+seed, part, noise or controller, and method. With the defaults and ``--jobs 2`` on two
+cores it takes about 5 minutes: part A 200 s (about 50 s per method, 0.7 s per fit),
+part B 80 s.
 """
 
 from __future__ import annotations
