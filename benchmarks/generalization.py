@@ -94,6 +94,7 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "default_refine20": {"refine_iterations": 20},
     "default_refined_order": {"order_rule": "refined"},
     "default_refined_order_half": {"order_rule": "refined", "order_errors": 0.5},
+    "default_direct": {"closed_loop": "direct"},
 }
 LENGTHS = (("N_E < 1000", 0, 999), ("N_E 1000-5000", 1000, 5000), ("N_E > 5000", 5001, 10 ** 9))
 QUICK = {"daisy": ("ballbeam", "destill", "dryer2"), "windows": 2, "synthetic": 4}

@@ -4,22 +4,26 @@ Under feedback a plant input is ``u = S_u r + S_v v``: a part made by the logged
 references ``r`` (set-points, dither) through the loop, and a part made by the output
 noise ``v`` through the controller. The second part is correlated with the noise, so an
 open-loop method fitted on ``(u, y)`` is biased. The first part is independent of the
-noise. Stage one estimates it as a causal FIR regression of each input on the references
-(lags ``0..L`` of every reference and an intercept), ``u_hat = F(q) r``; stage two
-identifies the plant on ``(u_hat, y)``. Its error ``y - G u_hat = G S_v v + v`` is then
-uncorrelated with the regressors, so the plant estimate is consistent and the usual
-sandwich covariances hold (docs/closed_loop.md §2; Van den Hof and Schrama, 1993).
+noise. Stage one estimates it by least squares as ``u_hat = F(q) r``, ``F`` a combination of
+orthonormal basis functions of the references: each reference itself (the controller's
+direct term), then the Laguerre functions ``L_k(q) = sqrt(1 - a^2) / (q - a) ((1 - a q) / (q - a))^k``,
+``k < K``, and an intercept. With ``a = 0`` they are the plain delays (a FIR of lags
+``0..K``); with ``a`` near the loop's slow pole a few functions span a response that a FIR
+would need hundreds of lags for. Stage two identifies the plant on ``(u_hat, y)``. Its
+error ``y - G u_hat = G S_v v + v`` is then uncorrelated with the regressors, so the plant
+estimate is consistent (docs/closed_loop.md §2; Van den Hof and Schrama, 1993).
 
-``L`` is chosen by AIC among ``0, 1, 2, 4, 8, ...`` up to a bound set by the record's
-rows (:data:`ROWS_PER_COEFFICIENT`) and :data:`MAX_LAGS`. Too short a FIR leaves part of
-the reference's effect in the error, correlated with ``u_hat``: a bias. BIC's heavier
-penalty chose ``L = 0`` or 1 on PI loops whose inputs are mostly noise-driven, with gain
-bias of 2 standard deviations; AIC and a fixed ``L = 16`` removed most of it
-(docs/closed_loop.md §4). The lags are nested, so one
-triangular factor of ``[regressors | inputs]`` gives every candidate's residual sums (the
-norm of the trailing part of ``Q^T u``), streamed in row blocks: memory is that factor,
-whatever the record's length. Before its first sample a reference is taken as constant at
-its first value (a set-point held before the record starts).
+``a`` (in :data:`POLES`) and ``K`` (``0, 1, 2, 4, ...`` up to a bound set by the fitting
+rows, :data:`ROWS_PER_COEFFICIENT`, and :data:`MAX_FUNCTIONS`) are chosen on the
+estimation record itself: each basis is fitted on its first 70 % and judged by its squared
+errors on the rest (:data:`HELD_OUT`). The inputs' noise-driven part is slow (the loop
+filters the output noise), a slow basis can fit it by chance, and information criteria,
+which take the residuals as white, chose such bases (docs/closed_loop.md §4). The
+functions are nested, so one triangular factor of the fitting rows and one Gram matrix of
+the held-out rows per pole give every ``K``'s errors, streamed in row blocks with the
+filters' states carried: memory is bounded whatever the record's length. The chosen basis
+is then fitted on the whole record. Before its first sample a reference is taken as
+constant at its first value (a set-point held before the record starts).
 """
 
 from __future__ import annotations
@@ -27,7 +31,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass
-from typing import Callable
+from typing import Iterator
 
 import numpy as np
 
@@ -37,9 +41,13 @@ from .row_blocks import BLOCK_ROWS, streamed_factor
 
 __all__ = ["FirstStage", "ReferenceProjection", "fit_projection", "two_stage_records", "without_reference"]
 
-# Longest FIR of the first stage: 128 samples cover the loop's settling on the records
-# moli is used on; the factor holds (1 + r (L + 1) + m)^2 values.
-MAX_LAGS = 128
+# Poles of the Laguerre bases tried (0: the plain FIR), and the most functions of one: 128
+# delays cover the loop's settling on the records moli is used on, and a pole near the
+# loop's slowest covers far more with fewer; a factor holds (1 + r (K + 1) + m)^2 values.
+POLES = (0.0, 0.5, 0.8, 0.9, 0.95, 0.98)
+# Share of the estimation record, at its end, on which the bases are compared.
+HELD_OUT = 0.3
+MAX_FUNCTIONS = 128
 # Rows of the first-stage regression per coefficient of one input's FIR at the longest
 # lag count allowed, so that the noise in u_hat from the FIR's own estimate stays small.
 ROWS_PER_COEFFICIENT = 10
@@ -83,17 +91,21 @@ class ReferenceProjection:
         The references' channel names.
     inputs : tuple of str
         The plant inputs' names.
-    lags : int
-        ``L``: each input is regressed on the references at lags ``0..L``.
-    coefficients : ndarray, shape (1 + r (L + 1), m)
-        Intercept, then the references at lag 0, lag 1, ... (every reference per lag).
+    pole : float
+        ``a`` of the Laguerre functions (0: plain delays).
+    functions : int
+        ``K``: the Laguerre functions of each reference, beside the reference itself.
+    coefficients : ndarray, shape (1 + r (K + 1), m)
+        Intercept, then every reference, then every reference's first function, ...
     explained : ndarray, shape (m,)
-        Share of each input's variance (about its mean) that the references explain.
+        Share of each input's variance (about its mean) that the references explain on the
+        held-out rows of the estimation record, by the basis fitted on the others.
     """
 
     reference: tuple[str, ...]
     inputs: tuple[str, ...]
-    lags: int
+    pole: float
+    functions: int
     coefficients: np.ndarray
     explained: np.ndarray
 
@@ -109,11 +121,12 @@ class ReferenceProjection:
 
     def _design(self, data: IOData) -> tuple[np.ndarray, list[int]]:
         r, plant = _columns(data, self.reference)
-        return np.concatenate([_lagged(r[a:b], self.lags, 0, b - a) for a, b in data.bounds]), plant
+        return np.concatenate([block for a, b in data.bounds
+                               for block in _basis_blocks(r[a:b], self.pole, self.functions)]), plant
 
     def to_dict(self) -> dict[str, object]:
         """What a model's ``info["closed_loop"]`` records of the first stage."""
-        return {"reference": list(self.reference), "fir_lags": self.lags,
+        return {"reference": list(self.reference), "basis_pole": self.pole, "basis_functions": self.functions,
                 "explained_share": dict(zip(self.inputs, np.round(self.explained, 4).tolist()))}
 
 
@@ -131,14 +144,27 @@ def _columns(data: IOData, reference: tuple[str, ...]) -> tuple[np.ndarray, list
     return data.u[:, [data.input_names.index(name) for name in reference]], plant
 
 
-def _lagged(r: np.ndarray, lags: int, k0: int, k1: int) -> np.ndarray:
-    """Rows ``k0..k1-1`` of ``[1, r[k], r[k-1], ..., r[k-L]]`` for one segment, ``r`` held
-    at its first value before the segment starts."""
-    pad = max(lags - k0, 0)
-    padded = np.concatenate([np.repeat(r[:1], pad, axis=0), r[max(k0 - lags, 0) : k1]])
-    windows = np.lib.stride_tricks.sliding_window_view(padded, lags + 1, axis=0)   # (rows, r, L + 1)
-    rows = windows[:, :, ::-1].transpose(0, 2, 1).reshape(k1 - k0, -1)              # lag-major
-    return np.concatenate([np.ones((k1 - k0, 1)), rows], axis=1)
+def _basis_blocks(r: np.ndarray, pole: float, count: int, block_rows: int = BLOCK_ROWS) -> Iterator[np.ndarray]:
+    """Row blocks of ``[1, r, L_0 r, ..., L_{K-1} r]`` (function-major) for one segment, each
+    filter started in the steady state of ``r`` held at its first value."""
+    from scipy.signal import lfilter  # slow to import: only for the two-stage method
+
+    gain = math.sqrt(1.0 - pole**2)
+    first, allpass, denominator = np.array([0.0, gain]), np.array([-pole, 1.0]), np.array([1.0, -pole])
+    # lfilter's state before the first sample, in the steady state of r held at r[0]: the
+    # first filter's output there is held, and so is every all-pass's; the state of
+    # y = b0 x + z is z = y - b0 x
+    held = r[:1] * gain / (1.0 - pole)
+    states = [held] + [held * (1.0 + pole) for _ in range(count - 1)]
+    for k0 in range(0, r.shape[0], block_rows):
+        chunk = r[k0 : k0 + block_rows]
+        columns = [np.ones((chunk.shape[0], 1)), chunk]
+        signal = chunk
+        for k in range(count):
+            b = first if k == 0 else allpass
+            signal, states[k] = lfilter(b, denominator, signal, axis=0, zi=states[k])
+            columns.append(signal)
+        yield np.concatenate(columns, axis=1)
 
 
 def fit_projection(data: IOData, reference: tuple[str, ...]) -> ReferenceProjection:
@@ -164,7 +190,7 @@ def fit_projection(data: IOData, reference: tuple[str, ...]) -> ReferenceProject
     Warns
     -----
     WeakReferenceWarning
-        The references explain less than 5 % of an input's variance.
+        The references explain less than 5 % of an input's variance on the held-out rows.
     """
     r, plant = _columns(data, reference)
     for name, column in zip(reference, r.T):
@@ -174,34 +200,58 @@ def fit_projection(data: IOData, reference: tuple[str, ...]) -> ReferenceProject
                             "the loop, so it cannot tell the plant from the noise; step or dither the "
                             "set-point, or identify with closed_loop='direct'")
     u = data.u[:, plant]
-    nr = r.shape[1]
+    nr, m = r.shape[1], u.shape[1]
     longest = max(b - a for a, b in data.bounds)
-    bound = (data.N // ROWS_PER_COEFFICIENT - 1) // nr - 1
-    top = min(MAX_LAGS, bound, longest - 1)
+    bound = (int(data.N * (1 - HELD_OUT)) // ROWS_PER_COEFFICIENT - 1) // nr - 1
+    top = min(MAX_FUNCTIONS, bound, longest - 1)
     if top < 0:
         raise DataError(f"the record holds {data.N} samples: too few for the two-stage method's first stage "
                         f"(at least {ROWS_PER_COEFFICIENT * (1 + nr)} with {nr} reference{'s' * (nr > 1)})")
-    candidates = [0] + [2**i for i in range(int(math.log2(top)) + 1)] if top >= 1 else [0]
+    counts = [0] + [2**i for i in range(int(math.log2(top)) + 1)] if top >= 1 else [0]
     width = 1 + nr * (top + 1)
+    cut = data.N - max(1, int(round(HELD_OUT * data.N)))     # rows from here on judge the bases
 
-    def blocks():
+    def rows(pole: float) -> Iterator[tuple[int, np.ndarray]]:
+        """``(first row, [regressors | inputs])`` blocks of this pole's basis of ``top`` functions."""
         for a, b in data.bounds:
-            for k0 in range(0, b - a, BLOCK_ROWS):
-                k1 = min(k0 + BLOCK_ROWS, b - a)
-                yield np.concatenate([_lagged(r[a:b], top, k0, k1), u[a + k0 : a + k1]], axis=1).T
+            for k0, block in zip(range(a, b, BLOCK_ROWS), _basis_blocks(r[a:b], pole, top)):
+                yield k0, np.concatenate([block, u[k0 : k0 + block.shape[0]]], axis=1)
 
-    R = streamed_factor(blocks())
-    tail = R[:, width:]                       # Q^T u: its trailing rows are what each lag count leaves
-    leftover = np.sum(tail[width:] ** 2, axis=0)
+    def split_factor(pole: float) -> tuple[np.ndarray, np.ndarray]:
+        """The factor of the fitting rows and the Gram matrix of the held-out rows."""
+        gram = np.zeros((width + m, width + m))
 
-    def residual(lags: int) -> np.ndarray:
-        return np.sum(tail[1 + nr * (lags + 1) : width] ** 2, axis=0) + leftover
+        def fitting() -> Iterator[np.ndarray]:
+            for k0, block in rows(pole):
+                fit = max(0, min(block.shape[0], cut - k0))
+                gram[...] += block[fit:].T @ block[fit:]
+                if fit:
+                    yield block[:fit].T
+        return streamed_factor(fitting()), gram
 
-    lags = choose_lags(residual, candidates, data.N, nr)
-    used = 1 + nr * (lags + 1)
-    coefficients = np.linalg.lstsq(R[:used, :used], tail[:used], rcond=None)[0]
-    total = np.sum(tail[1:] ** 2, axis=0)      # about the mean: the intercept is the first column
-    explained = 1.0 - residual(lags) / np.where(total > 0, total, 1.0)
+    # Each basis (pole, count) is fitted on the first rows and judged by its squared errors on
+    # the held-out rest: the inputs' noise-driven part is slow (the loop filters the output
+    # noise), and a slow basis can fit slow noise by chance; AIC, which takes the residuals
+    # as white, then chose 64 Laguerre functions, or explained a third of an input with
+    # references unrelated to it (docs/closed_loop.md §4)
+    best = None
+    for pole in POLES:
+        R, gram = split_factor(pole)
+        for count in counts:
+            used = 1 + nr * (count + 1)
+            beta = np.linalg.lstsq(R[:used, :used], R[:used, width:], rcond=None)[0]
+            held = (np.diagonal(gram)[width:] - 2 * np.einsum("ij,ij->j", beta, gram[:used, width:])
+                    + np.einsum("ij,ik,kj->j", beta, gram[:used, :used], beta))
+            scaled = float(np.sum(held / np.maximum(np.diagonal(gram)[width:], 1e-300)))
+            if best is None or scaled < best[0]:
+                best = (scaled, pole, count, held, gram)
+    _, pole, count, held, gram = best
+    # the held-out share of each input's variance the chosen basis explains
+    spread = np.diagonal(gram)[width:] - gram[0, width:] ** 2 / max(gram[0, 0], 1.0)
+    explained = 1.0 - held / np.where(spread > 0, spread, 1.0)
+    used = 1 + nr * (count + 1)
+    R = streamed_factor(block[:, list(range(used)) + list(range(width, width + m))].T for _, block in rows(pole))
+    coefficients = np.linalg.lstsq(R[:used, :used], R[:used, used:], rcond=None)[0]
     names = tuple(data.input_names[j] for j in plant)
     weak = [f"{name} ({share:.1%})" for name, share in zip(names, explained) if share < WEAK_SHARE]
     if weak:
@@ -209,15 +259,7 @@ def fit_projection(data: IOData, reference: tuple[str, ...]) -> ReferenceProject
                       f"{', '.join(weak)}: the loop is driven by its noise more than by the references, and "
                       "the two-stage estimate rests on that small part; excite the set-points more",
                       WeakReferenceWarning, stacklevel=3)
-    return ReferenceProjection(tuple(reference), names, lags, coefficients, explained)
-
-
-def choose_lags(residual: Callable[[int], np.ndarray], candidates: list[int], N: int, nr: int) -> int:
-    """The lag count of least AIC among ``candidates``; ``residual(L)`` gives each input's residual sum."""
-    m = residual(candidates[0]).size
-    aic = [float(np.sum(N * np.log(np.maximum(residual(L), 1e-300) / N)) + 2 * m * (1 + nr * (L + 1)))
-           for L in candidates]
-    return candidates[int(np.argmin(aic))]
+    return ReferenceProjection(tuple(reference), names, pole, count, coefficients, explained)
 
 
 def two_stage_records(estimation: IOData, validation: IOData,

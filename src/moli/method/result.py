@@ -86,9 +86,13 @@ class IdentificationResult:
         loop = self.model.info.get("closed_loop", {})
         if loop.get("method", "open") == "open" and not loop.get("feedback"):
             return None
-        first = ("; first stage: FIR of lags 0 to {}, input variance explained {}".format(
-            loop["fir_lags"], ", ".join(f"{name} {share:.0%}" for name, share in loop["explained_share"].items()))
-            if "fir_lags" in loop else "")
+        if "basis_pole" in loop:
+            basis = (f"FIR of lags 0 to {loop['basis_functions']}" if loop["basis_pole"] == 0 else
+                     f"each reference and {loop['basis_functions']} Laguerre functions of pole {loop['basis_pole']:g}")
+            first = f"; first stage: {basis}, input variance explained " + ", ".join(
+                f"{name} {share:.0%}" for name, share in loop["explained_share"].items())
+        else:
+            first = ""
         return f"{loop['method']} method: {loop['why']}{first}"
 
     def summary(self) -> str:
