@@ -21,7 +21,7 @@ true gain (static gain and 14 frequencies up to Nyquist), the time per fit.
 Part B, the twin rotor (``moli.systems.TwinRotor`` with encoder and 1e-3 rad noise): per
 seed, the LQ servo and the PID baseline of ``examples/twin_rotor.py`` are designed on the
 model of another seed's open-loop experiment, then track random set-point steps around
-the trim (pitch +-0.15 rad, yaw +-0.45 rad, held 4-12 s) for 60 s, the length of the
+the trim (pitch +-0.15 rad, yaw +-0.45 rad, held 0.5-2 s; ``--rotor-hold``) for 60 s, the length of the
 open-loop ``identification_experiment``. Each closed-loop record is identified by the
 methods above (the example's filter grid and order bound, center=False, the last 30 %
 held out), as is the open-loop experiment of the same seed; every model is scored with
@@ -155,6 +155,8 @@ def main() -> None:
     parser.add_argument("--out", type=Path, help="directory for closed_loop.json")
     parser.add_argument("--skip-a", action="store_true", help="no part A (the PI-loop plant)")
     parser.add_argument("--skip-b", action="store_true", help="no part B (the twin rotor)")
+    parser.add_argument("--rotor-hold", default=",".join(map(str, cases.ROTOR_HOLD)),
+                        help="part B: shortest and longest hold of a set-point, samples of 0.1 s")
     args = parser.parse_args()
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     unknown = sorted(set(methods) - set(cases.METHODS))
@@ -177,19 +179,21 @@ def main() -> None:
             print(line)
         print(flush=True)
     if not args.skip_b:
+        hold = tuple(int(value) for value in args.rotor_hold.split(","))
         started = time.perf_counter()
-        for found in Parallel(n_jobs=args.jobs)(delayed(cases.quiet(cases.rotor_seed))(seed, methods)
+        for found in Parallel(n_jobs=args.jobs)(delayed(cases.quiet(cases.rotor_seed))(seed, methods, hold)
                                                 for seed in range(args.rotor_seeds)):
             rows += found
         seconds["B"] = time.perf_counter() - started
-        print(f"## Part B: twin rotor, {args.rotor_seeds} seeds, {seconds['B']:.0f} s\n")
+        print(f"## Part B: twin rotor, {args.rotor_seeds} seeds, set-points held {hold[0]}-{hold[1]} samples, "
+              f"{seconds['B']:.0f} s\n")
         for line in rotor_tables(fits(rows, part="B"), methods):
             print(line)
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
         config = {"seeds": args.seeds, "rotor_seeds": args.rotor_seeds, "methods": methods, "N": cases.N,
                   "noise_sd": cases.NOISE_SD, "noises": cases.NOISES, "omega": cases.OMEGA.tolist(),
-                  "seconds": seconds}
+                  "seconds": seconds, "rotor_hold": args.rotor_hold}
         (args.out / "closed_loop.json").write_text(json.dumps({"config": config, "rows": rows}, indent=1))
         print(f"\nrows written to {args.out / 'closed_loop.json'}")
 
