@@ -148,7 +148,9 @@ def rotor_tables(rows: list[dict], methods: list[str]) -> list[str]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--seeds", type=int, default=50, help="records per noise type in part A")
-    parser.add_argument("--rotor-seeds", type=int, default=5, help="seeds of part B")
+    parser.add_argument("--rotor-seeds", type=int, default=10, help="seeds of part B")
+    parser.add_argument("--first-seed", type=int, default=0,
+                        help="seeds run from here on (records a choice was not made on)")
     parser.add_argument("--methods", default=",".join(cases.METHODS),
                         help="comma-separated, of " + ", ".join(cases.METHODS))
     parser.add_argument("--jobs", type=int, default=2, help="parallel workers")
@@ -169,7 +171,7 @@ def main() -> None:
     if not args.skip_a:
         started = time.perf_counter()
         for found in Parallel(n_jobs=args.jobs)(delayed(cases.quiet(cases.pi_seed))(seed, noise, methods)
-                                                for noise in cases.NOISES for seed in range(args.seeds)):
+                                                for noise in cases.NOISES for seed in range(args.first_seed, args.first_seed + args.seeds)):
             rows += found
         seconds["A"] = time.perf_counter() - started
         snr = np.array([r["snr_db"] for r in fits(rows, part="A", method="open")])
@@ -182,7 +184,7 @@ def main() -> None:
         hold = tuple(int(value) for value in args.rotor_hold.split(","))
         started = time.perf_counter()
         for found in Parallel(n_jobs=args.jobs)(delayed(cases.quiet(cases.rotor_seed))(seed, methods, hold)
-                                                for seed in range(args.rotor_seeds)):
+                                                for seed in range(args.first_seed, args.first_seed + args.rotor_seeds)):
             rows += found
         seconds["B"] = time.perf_counter() - started
         print(f"## Part B: twin rotor, {args.rotor_seeds} seeds, set-points held {hold[0]}-{hold[1]} samples, "
@@ -191,7 +193,7 @@ def main() -> None:
             print(line)
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
-        config = {"seeds": args.seeds, "rotor_seeds": args.rotor_seeds, "methods": methods, "N": cases.N,
+        config = {"first_seed": args.first_seed, "seeds": args.seeds, "rotor_seeds": args.rotor_seeds, "methods": methods, "N": cases.N,
                   "noise_sd": cases.NOISE_SD, "noises": cases.NOISES, "omega": cases.OMEGA.tolist(),
                   "seconds": seconds, "rotor_hold": args.rotor_hold}
         (args.out / "closed_loop.json").write_text(json.dumps({"config": config, "rows": rows}, indent=1))
