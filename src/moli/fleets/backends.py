@@ -15,6 +15,7 @@ import time
 from typing import Any, Callable, Iterable, Iterator, Sequence
 
 from ..errors import MoliError, OptionError
+from .dask_workers import quiet_workers
 
 __all__ = ["usable_cpus", "run_calls", "dask_completed", "NoWorkersError", "LostWorkerError",
            "NO_WORKER_TIMEOUT"]
@@ -101,7 +102,7 @@ def run_calls(
         def completed(futures: list[Any]) -> Iterator[Any]:
             return dask_completed(executor, futures, no_worker_timeout)
 
-        with _futures(executor.submit, calls, function, completed, pure=False) as done:
+        with quiet_workers(executor), _futures(executor.submit, calls, function, completed, pure=False) as done:
             yield f"dask, {address}", done
     elif isinstance(executor, concurrent.futures.Executor):
         with _futures(executor.submit, calls, function, concurrent.futures.as_completed) as done:
@@ -180,7 +181,8 @@ def dask_completed(client: Any, futures: Iterable[Any], timeout: float = NO_WORK
     """
     from distributed import as_completed
 
-    pending = as_completed(list(futures))
+    # the client's own loop: it need not be the default client of this process
+    pending = as_completed(list(futures), loop=getattr(client, "loop", None))
     alone_since: float | None = None
     while not pending.is_empty():
         batch = pending.next_batch(block=False)
