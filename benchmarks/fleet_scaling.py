@@ -205,6 +205,10 @@ def main() -> None:
                                "samples_per_s": rate_one}
     say(f"one process: {args.serial_chunks} chunks of {chunk:.3g} in {t_chunks:.2f} s, {rate_one:.3g} samples/s")
 
+    def save() -> None:  # after every row: a run cut short keeps what it measured
+        report["load_at_end"] = load()
+        (args.out / "fleet_scaling.json").write_text(json.dumps(report, indent=1))
+
     def fleet_row(backend: str, workers: int, timed: tuple, first: dict) -> None:
         fleet, wall, clocks = timed
         n = len(fleet)
@@ -220,6 +224,7 @@ def main() -> None:
         say(f"{backend:24s} {workers:3d} workers: {n} records {wall:6.2f} s  speed-up {speedup:5.2f}  "
             f"efficiency {speedup / workers:4.2f}  per record on a worker {1e3 * on_worker:6.1f} ms "
             f"({on_worker / per_record:4.2f} x serial)  identical {same}\n    " + spent(clocks))
+        save()
 
     first: dict = {}
     for workers in counts:
@@ -250,10 +255,10 @@ def main() -> None:
                 row = {"workers": workers, "chunks": count, "chunk": chunk, "read_once": read_once, "wall_s": wall,
                        "samples_per_s": rate, "speedup": rate / rate_one, "relative_gap": gap}
                 report["chunks"].append(row)
+                save()
                 say(f"estimate_chunks{', read_once' if read_once else '':11s} {workers:3d} workers: {count} chunks "
                     f"{wall:6.2f} s  {rate:.3g} samples/s  speed-up {rate / rate_one:5.2f}  gap {gap:.1e}")
-    report["load_at_end"] = load()
-    (args.out / "fleet_scaling.json").write_text(json.dumps(report, indent=1))
+    save()
     print(table(report))
 
 
