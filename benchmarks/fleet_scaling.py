@@ -7,8 +7,11 @@ count it times:
 
 - the fleet on loky's processes and on a Dask LocalCluster started under
   ``moli.fleets.dask_worker_config()`` (best of ``--repeats`` runs after a warm-up); with
-  ``--before``, also a cluster with Dask's defaults (``MALLOC_TRIM_THRESHOLD_`` unset
-  only) and moli's pause of the workers' profiler turned off, as fleets ran before;
+  ``--before``, also the largest cluster with Dask's defaults (``MALLOC_TRIM_THRESHOLD_``
+  unset only) and moli's pause of the workers' profiler turned off, as fleets ran
+  before (the records are submitted as now, in one ``client.map``);
+- where each record's time went on its worker: CPU, waiting for a CPU, blocked; and the
+  CPU of the workers' other threads and of the calling process (Linux's schedstat);
 - each record's time on its worker (``FleetEntry.seconds``) against its time in one process;
 - ``estimate_chunks`` on the same cluster, reading each chunk twice and with ``read_once``.
 
@@ -219,11 +222,13 @@ def main() -> None:
         row = {"backend": backend, "workers": workers, "records": n, "wall_s": wall, "speedup": speedup,
                "efficiency": speedup / workers, "per_record_on_worker_s": on_worker,
                "worker_over_serial": on_worker / per_record, "identical": same, "failures": len(fleet.failures),
-               **clocks}
+               # cores' worth of CPU the calling process used meanwhile: near 1, it paces the fleet
+               "calling_process_cores": clocks["calling_process_cpu_per_record_s"] * n / wall, **clocks}
         report["fleets"].append(row)
         say(f"{backend:24s} {workers:3d} workers: {n} records {wall:6.2f} s  speed-up {speedup:5.2f}  "
             f"efficiency {speedup / workers:4.2f}  per record on a worker {1e3 * on_worker:6.1f} ms "
-            f"({on_worker / per_record:4.2f} x serial)  identical {same}\n    " + spent(clocks))
+            f"({on_worker / per_record:4.2f} x serial)  identical {same}\n    " + spent(clocks)
+            + f" ({row['calling_process_cores']:.2f} of a core)")
         save()
 
     first: dict = {}
@@ -274,19 +279,20 @@ def table(report: dict) -> str:
     lines = [f"\nOne process: {1e3 * serial['per_record_s']:.1f} ms per record; "
              f"{report['serial_chunks']['samples_per_s']:.3g} samples/s reduced.\n",
              "| backend | workers | records | wall | speed-up | efficiency | per record on a worker | of which CPU "
-             "/ waiting for a CPU / blocked | workers' other threads / calling process, CPU per record | identical |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "/ waiting for a CPU / blocked | workers' other threads / calling process, CPU per record | calling process, "
+             "cores | identical |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     ms = lambda r, key: f"{1e3 * r[key]:.1f}"  # noqa: E731
     s = report["serial"]
     lines.append(f"| one process | 1 | {s['records']} | {s['wall_s']:.2f} s | 1 | 1 | {ms(s, 'per_record_s')} ms | "
                  f"{ms(s, 'cpu_per_record_s')} / {ms(s, 'cpu_wait_per_record_s')} / {ms(s, 'blocked_per_record_s')} ms"
-                 f" | - / - | |")
+                 f" | - / - | | |")
     for r in report["fleets"]:
         lines.append(f"| {r['backend']} | {r['workers']} | {r['records']} | {r['wall_s']:.2f} s | {r['speedup']:.2f} | "
                      f"{r['efficiency']:.2f} | {ms(r, 'per_record_on_worker_s')} ms ({r['worker_over_serial']:.2f} x) | "
                      f"{ms(r, 'cpu_per_record_s')} / {ms(r, 'cpu_wait_per_record_s')} / {ms(r, 'blocked_per_record_s')} ms"
                      f" | {ms(r, 'worker_other_threads_cpu_per_record_s')} / {ms(r, 'calling_process_cpu_per_record_s')}"
-                     f" ms | {r['identical']} |")
+                     f" ms | {r['calling_process_cores']:.2f} | {r['identical']} |")
     lines += ["", "| estimate_chunks | workers | chunks | wall | samples/s | speed-up | relative gap |",
               "|---|---|---|---|---|---|---|"]
     for r in report["chunks"]:
