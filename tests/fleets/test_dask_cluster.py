@@ -121,3 +121,38 @@ def test_fit_many_on_a_scheduler_writes_the_local_models(client, tmp_path):
     for entry in here:
         saved = moli.load_model(tmp_path / "models" / f"{entry.name}.json")
         np.testing.assert_array_equal(saved.A, entry.result.model.A)
+
+
+def _sampling(dask_worker) -> tuple[bool, float]:
+    callbacks = dask_worker.periodic_callbacks
+    return callbacks["profile"].is_running(), callbacks["tick"].callback_time
+
+
+def test_a_fleet_runs_without_the_workers_profiler_and_puts_it_back(client):
+    default = set(client.run(_sampling).values())
+    assert default == {(True, 20.0)}  # Dask's defaults: the test means nothing otherwise
+    during = []
+    fleet = {f"loop{k}": moli.example_data(N=300, seed=k) for k in range(2)}
+    moli.identify_many(fleet, moli.IdentifyOptions(nmax=2), executor=client,
+                       progress=lambda entry: during.append(set(client.run(_sampling).values())))
+    assert during == [{(False, 1000.0)}] * 2
+    assert set(client.run(_sampling).values()) == default
+
+
+def test_overlapping_quiet_blocks_restore_the_workers_when_the_last_ends(client):
+    from moli.fleets.dask_workers import quiet_workers
+
+    with quiet_workers(client):
+        with quiet_workers(client):
+            pass
+        assert set(client.run(_sampling).values()) == {(False, 1000.0)}
+    assert set(client.run(_sampling).values()) == {(True, 20.0)}
+
+
+def test_workers_started_under_the_config_have_no_profiler():
+    import dask
+
+    with dask.config.set(moli.fleets.dask_worker_config()), \
+            distributed.LocalCluster(n_workers=1, processes=False, dashboard_address=":0") as cluster, \
+            distributed.Client(cluster) as connected:
+        assert set(connected.run(lambda dask_worker: "profile" in dask_worker.periodic_callbacks).values()) == {False}

@@ -15,6 +15,7 @@ import time
 from typing import Any, Callable, Iterable, Iterator, Sequence
 
 from ..errors import MoliError, OptionError
+from .dask_workers import quiet_workers
 
 __all__ = ["usable_cpus", "run_calls", "dask_completed", "NoWorkersError", "LostWorkerError",
            "NO_WORKER_TIMEOUT"]
@@ -101,10 +102,13 @@ def run_calls(
         def completed(futures: list[Any]) -> Iterator[Any]:
             return dask_completed(executor, futures, no_worker_timeout)
 
-        with _futures(executor.submit, calls, function, completed, pure=False) as done:
-            yield f"dask, {address}", done
+        with quiet_workers(executor):
+            # one graph for all the calls: a millisecond less per call in this process than a submit each
+            futures = executor.map(function, *zip(*calls), pure=False) if calls else []
+            with _futures(futures, completed) as done:
+                yield f"dask, {address}", done
     elif isinstance(executor, concurrent.futures.Executor):
-        with _futures(executor.submit, calls, function, concurrent.futures.as_completed) as done:
+        with _futures([executor.submit(function, *args) for args in calls], concurrent.futures.as_completed) as done:
             yield type(executor).__name__, done
     elif isinstance(executor, str):
         with _joblib(executor, workers, function, calls) as done:
@@ -117,10 +121,9 @@ def run_calls(
 
 
 @contextlib.contextmanager
-def _futures(submit: Callable[..., Any], calls: Sequence[tuple[Any, ...]], function: Callable[..., Any],
-             as_completed: Callable[[Any], Any], **options: Any) -> Iterator[Done]:
-    """One future per call; the ones still pending are cancelled when the loop stops early."""
-    futures = {submit(function, *args, **options): i for i, args in enumerate(calls)}
+def _futures(submitted: Sequence[Any], as_completed: Callable[[Any], Any]) -> Iterator[Done]:
+    """The futures of the calls, in their order; those still pending are cancelled when the loop stops early."""
+    futures = {future: i for i, future in enumerate(submitted)}
 
     def done() -> Done:
         pending = dict(futures)
@@ -180,7 +183,8 @@ def dask_completed(client: Any, futures: Iterable[Any], timeout: float = NO_WORK
     """
     from distributed import as_completed
 
-    pending = as_completed(list(futures))
+    # the client's own loop: it need not be the default client of this process
+    pending = as_completed(list(futures), loop=getattr(client, "loop", None))
     alone_since: float | None = None
     while not pending.is_empty():
         batch = pending.next_batch(block=False)
@@ -239,7 +243,7 @@ def _local_processes(workers: int, function: Callable[..., Any],
     lost: dict[int, BaseException] = {}
 
     def first_try() -> Done:
-        with _futures(pool.submit, calls, function, concurrent.futures.as_completed) as done:
+        with _futures([pool.submit(function, *args) for args in calls], concurrent.futures.as_completed) as done:
             for index, value, error in done:
                 if error is None:
                     yield index, value, None

@@ -26,6 +26,7 @@ memory holds one chunk and a few ``K x K`` factors whatever the record's length;
 
 from __future__ import annotations
 
+import contextlib
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -33,6 +34,7 @@ import numpy as np
 from ..errors import DataError, OptionError
 from ..streaming.chunked import ChunkedEstimator
 from .backends import dask_completed
+from .dask_workers import quiet_workers
 
 __all__ = ["estimate_chunks"]
 
@@ -118,17 +120,18 @@ def estimate_chunks(
     if not isinstance(read_once, bool):
         raise OptionError(f"read_once must be True or False, got {read_once!r}")
     run = _Runner(client)
-    # with read_once, a source is the future (or value) of a chunk's samples, else the chunk
-    sources = [run.submit(_samples, chunk) for chunk in chunks] if read_once else chunks
-    maps = run.gather([run.submit(_state_map, source, spec) for source in sources])
-    starts, states = _scan(maps, template.filter_states())
-    parts = [run.submit(_estimate, source, spec, start, state)
-             for source, start, state in zip(sources, starts, states)]
-    del sources  # the factors' tasks hold the samples they need; nothing else should
-    while len(parts) > 1:  # neighbours only: merging needs consecutive parts
-        parts = [run.submit(ChunkedEstimator.merge, *parts[i : i + 2]) if i + 1 < len(parts) else parts[i]
-                 for i in range(0, len(parts), 2)]
-    return run.gather(parts)[0]
+    with contextlib.nullcontext() if client is None else quiet_workers(client):
+        # with read_once, a source is the future (or value) of a chunk's samples, else the chunk
+        sources = [run.submit(_samples, chunk) for chunk in chunks] if read_once else chunks
+        maps = run.gather([run.submit(_state_map, source, spec) for source in sources])
+        starts, states = _scan(maps, template.filter_states())
+        parts = [run.submit(_estimate, source, spec, start, state)
+                 for source, start, state in zip(sources, starts, states)]
+        del sources  # the factors' tasks hold the samples they need; nothing else should
+        while len(parts) > 1:  # neighbours only: merging needs consecutive parts
+            parts = [run.submit(ChunkedEstimator.merge, *parts[i : i + 2]) if i + 1 < len(parts) else parts[i]
+                     for i in range(0, len(parts), 2)]
+        return run.gather(parts)[0]
 
 
 class _Runner:
