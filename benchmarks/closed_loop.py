@@ -27,7 +27,7 @@ methods above (the example's filter grid and order bound, center=False, the last
 held out), as is the open-loop experiment of the same seed; every model is scored with
 ``moli.compare`` (simulation from rest) on a third seed's open-loop experiment.
 
-    OPENBLAS_NUM_THREADS=1 python benchmarks/closed_loop.py [--seeds 50] [--rotor-seeds 5]
+    OPENBLAS_NUM_THREADS=1 python benchmarks/closed_loop.py [--seeds 50] [--rotor-seeds 10] [--first-seed 0]
         [--methods open,closed_default,two_stage,direct] [--jobs 2] [--out DIR] [--skip-a] [--skip-b]
 
 Prints markdown tables; with ``--out DIR`` writes ``DIR/closed_loop.json`` with a row per

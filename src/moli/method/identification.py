@@ -144,8 +144,9 @@ def identify(
         raise OptionError(f"IdentifyOptions.input_hold={opts.input_hold!r} applies in continuous time only "
                           "(time='continuous'): a sampled model takes each input as it is sampled")
     loop = opts.closed_loop or ("two-stage" if opts.reference else "open")
-    if loop != "open" and opts.order_rule is None:
-        # the closed-loop methods' order: the paired rule (docs/closed_loop.md §4)
+    if loop == "two-stage" and opts.order_rule is None:
+        # the two-stage method's order: the paired rule (docs/closed_loop.md §4); the direct
+        # method keeps the best order, whose extra states its noise model may need
         opts = opts.replace(order_rule="paired")
     if loop == "direct":
         # a controller that reads y[k] to make u[k] would let a feedthrough carry y[k] into

@@ -56,8 +56,8 @@ class IdentifyOptions:
     order_rule : {"tolerance", "paired", "refined"}, optional
         How the order is picked on the validation record; None (the default) means
         "tolerance" in discrete time and "paired" in continuous time and for the
-        closed-loop methods (docs/continuous.md §5 and docs/closed_loop.md §4 give the
-        measurements behind each): the lowest order within
+        two-stage closed-loop method (docs/continuous.md §5 and docs/closed_loop.md §4 give
+        the measurements behind each): the lowest order within
         ``order_tolerance`` points of the best mean VAF; the lowest order whose
         validation error is within one paired standard error of the best model's
         (:func:`moli.method.order_rules.select_order_paired`); or the same test with each
