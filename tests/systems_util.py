@@ -76,9 +76,9 @@ def resonant_noise_system() -> tuple[moli.StateSpaceModel, np.ndarray, np.ndarra
     return moli.StateSpaceModel(A, B, C), K, cov
 
 
-# The closed-loop plant: two first-order channels (poles 0.9 and 0.85) with coupling, y = x + v.
-PI_LOOP_A = np.diag([0.9, 0.85])
-PI_LOOP_B = np.array([[0.1, 0.03], [0.02, 0.15]])
+# The closed-loop plant (moli.systems.pi_loop_plant): two first-order channels, poles 0.9 and
+# 0.85, with coupling, y = x + v; here under PI loops of its own (kp 1, ki 0.15) and noise 0.3.
+PI_LOOP_A, PI_LOOP_B = moli.systems.pi_loop_plant().A, moli.systems.pi_loop_plant().B
 PI_LOOP_GAIN = np.linalg.solve(np.eye(2) - PI_LOOP_A, PI_LOOP_B)
 
 
