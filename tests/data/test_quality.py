@@ -120,3 +120,5 @@ def test_the_selected_order_at_the_bound_warns():
         warnings.simplefilter("error", OrderBoundWarning)
         # the 1-point rule stops below the bound on this record: no warning
         moli.identify(est, val, moli.IdentifyOptions.improved(nmax=9))
+        # a fixed order is the caller's choice: the path ends there, and nothing was cut short
+        moli.identify(est, val, order=3)

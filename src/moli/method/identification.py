@@ -313,7 +313,8 @@ def identify(
     model.info["options"] = opts.to_dict()
     model.info["closed_loop"] = _loop_record(loop, projection, feedback)
     model.warn_if_unstable(stacklevel=2)
-    if path[selected].order >= nmax and not interrupted:
+    # a fixed order is the caller's choice, not the search running into its bound
+    if path[selected].order >= nmax and not interrupted and path[selected].order != opts.order:
         warnings.warn(
             f"the selected order {path[selected].order} is the search's bound nmax = {nmax}: a "
             f"higher order may fit better; raise it with nmax=... (moli fit --nmax)",
