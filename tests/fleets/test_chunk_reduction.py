@@ -150,3 +150,19 @@ def test_estimate_chunks_rejects_bad_arguments_before_reading():
         estimate_chunks([lambda: Y], INDICES, ALPHA, 3)
     with pytest.raises(DataError, match="shape"):
         estimate_chunks([lambda: (Y[:, :2], U)], INDICES, ALPHA, 3)
+
+
+def test_a_long_chunks_state_map_filters_only_its_tail():
+    # wc = 0.5: the free response is below 1e-17 after a few thousand samples, so a chunk
+    # of 20,000 is mapped from its tail; the map must still be the filters' own to round-off
+    from moli.streaming.recursive import _reach
+
+    long_y, long_u, _ = plant_record(20_100, noise=0.1, seed=4)
+    alpha = moli.filter_polynomial(0.5, 0.7, INDICES)
+    head = ChunkedEstimator(INDICES, alpha, 3).add(long_y[:100], long_u[:100])
+    start = head.filter_states()
+    carried = ChunkedEstimator(INDICES, alpha, 3).resume(100, start).add(long_y[100:], long_u[100:])
+    maps = head.state_map(long_y[100:], long_u[100:])
+    assert all(_reach(regressors, 20_000) < 20_000 for _, regressors, _ in head._bank._groups)
+    for (T, s), S, after in zip(maps, start, carried.filter_states()):
+        np.testing.assert_allclose(T @ S + s, after, rtol=0, atol=1e-12 * np.max(np.abs(after)))

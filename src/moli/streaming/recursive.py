@@ -23,6 +23,13 @@ from ..errors import DataError, OptionError
 from ..method.estimation import realize
 from ..method.filters import check_alpha, divisors
 from ..models.statespace import StateSpaceModel
+
+# A chunk's state map filters only the samples whose effect on the end state is above
+# round-off: those after the point where every entry of the free response is below
+# NEGLIGIBLE_RESPONSE (1e-17, a tenth of the state's own round-off), looked for from
+# REACH_START samples on, doubling.
+NEGLIGIBLE_RESPONSE = 1e-17
+REACH_START = 4096
 from .sqrt_rls import SquareRootRls
 from ..method.structure import Indices, check_indices
 
@@ -133,7 +140,10 @@ class BankRls:
         maps = []
         for _, regressors, _ in self._groups:
             fresh = CausalRegressors(regressors.filters, z.shape[1])
-            fresh.advance(z)
+            # the state from zero depends on the samples before the last K only through the
+            # free response over K samples: once that is below round-off, those samples
+            # need not be filtered (a chunk's map then costs a tail, not the chunk)
+            fresh.advance(z[z.shape[0] - _reach(regressors, z.shape[0]) :])
             maps.append((regressors.transition(z.shape[0]), fresh.state()))
         return maps
 
@@ -309,3 +319,15 @@ class RecursiveMoli(FixedFilterEstimator):
     def model(self) -> StateSpaceModel:
         """The state-space model of the current estimate (observer-form coordinates)."""
         return self._model(*self._bank.matrices())
+
+
+def _reach(regressors: CausalRegressors, N: int) -> int:
+    """The samples, counted back from the end of ``N``, that set the state from zero to
+    round-off: the first of ``REACH_START``, twice that, ... whose free response is below
+    :data:`NEGLIGIBLE_RESPONSE` in every entry, else ``N``."""
+    K = REACH_START
+    while K < N:
+        if np.max(np.abs(regressors.transition(K)), initial=0.0) <= NEGLIGIBLE_RESPONSE:
+            return K
+        K *= 2
+    return N
