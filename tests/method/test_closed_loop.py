@@ -57,7 +57,7 @@ def test_the_first_stage_recovers_an_exact_fir():
     data = moli.IOData(np.zeros((800, 1)), np.column_stack([u, r]), input_names=["u", "r"])
     projection = fit_projection(data, ("r",))
     # an exact FIR: recovered to round-off
-    assert np.allclose(projection.project(data).u[:, 0], u, atol=1e-9)
+    assert np.allclose(projection.project(data)[0].u[:, 0], u, atol=1e-9)
     assert projection.explained[0] > 1 - 1e-12
 
 
@@ -136,14 +136,14 @@ def test_the_predictors_jacobian_matches_finite_differences():
     problem = PredictionErrorStart(start, data, True, 0.999).problem
     assert isinstance(problem, OutputErrorProblem)
     theta = problem.pack(problem.form, np.zeros(problem.x0_size)) + 0.01
-    yhat, _, _ = problem.simulate(theta)
+    yhat = problem.simulate(theta)
     residual = problem.residual(yhat)
     jac = problem.jacobian(theta, yhat, residual)[:, :-1]
     step = 1e-6
     for k in range(theta.size):
         moved = theta.copy()
         moved[k] += step
-        numeric = (residual - problem.residual(problem.simulate(moved)[0])) / step
+        numeric = (residual - problem.residual(problem.simulate(moved))) / step
         # forward differences: error of order step times the curvature, far below 1e-4 of the column
         assert np.allclose(jac[:, k], numeric, atol=1e-4 * max(1.0, np.abs(numeric).max()))
 

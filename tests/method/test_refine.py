@@ -113,7 +113,7 @@ def test_analytic_jacobian_matches_finite_differences():
     start = _start(data, feedthrough=True)
     problem = OutputErrorProblem(observer_form(start), data.u, data.y, fit_x0=True)
     theta = problem.pack(observer_form(start), np.array([0.3, -0.2, 0.1]))
-    yhat, _, _ = problem.simulate(theta)
+    yhat = problem.simulate(theta)
     augmented = problem.jacobian(theta, yhat, problem.residual(yhat))
     analytic = augmented[:, :-1]
     np.testing.assert_array_equal(augmented[:, -1], problem.residual(yhat))
@@ -121,8 +121,8 @@ def test_analytic_jacobian_matches_finite_differences():
     for k in range(theta.size):
         step = np.zeros(theta.size)
         step[k] = 1e-6 * max(1.0, abs(theta[k]))
-        plus, _, _ = problem.simulate(theta + step)
-        minus, _, _ = problem.simulate(theta - step)
+        plus = problem.simulate(theta + step)
+        minus = problem.simulate(theta - step)
         numeric[:, k] = -(problem.residual(plus) - problem.residual(minus)) / (2 * step[k])
     # central differences: truncation O(h^2) and round-off O(eps/h) give about 1e-9 relative
     assert np.max(np.abs(analytic - numeric)) <= 1e-6 * np.max(np.abs(numeric))

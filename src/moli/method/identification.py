@@ -183,7 +183,9 @@ def identify(
     screen(estimation, nmax, stacklevel=2)
     start = time.perf_counter()
     # a plant told to have feedthrough shows it at lag 0 like feedback: test later lags only
-    feedback = _feedback(estimation, lag_zero=opts.feedthrough is not True, warn=loop == "open")
+    # (the two-stage method's inputs are projections on the references: nothing to check)
+    feedback = None if loop == "two-stage" else _feedback(estimation, lag_zero=opts.feedthrough is not True,
+                                                           warn=loop == "open")
     # the path's models are fitted and scored on the shifted inputs, delay-free; the
     # delays are attached once the path is done (the results are the same either way)
     fitted, scored = shifted_inputs(estimation, delays), shifted_inputs(validation, delays)

@@ -100,13 +100,13 @@ class OutputErrorProblem:
         x0 = theta[at:] if self.fit_x0 else np.zeros(self.x0_size)
         return ObserverForm(self.form.A_D, self.form.C_D, D, B, G, F), x0
 
-    def simulate(self, theta: np.ndarray) -> tuple[np.ndarray, tuple[np.ndarray, ...], np.ndarray]:
+    def simulate(self, theta: np.ndarray) -> np.ndarray:
+        """The simulated outputs at ``theta``, each segment from its own initial state."""
         form, x0 = self.unpack(theta)
         A, B, C = form.matrices()
         starts = x0.reshape(-1, self.n)
-        yhat = np.concatenate([simulate_batch(A[None], B[None], C[None], self.u[a:b], start[None])[0]
+        return np.concatenate([simulate_batch(A[None], B[None], C[None], self.u[a:b], start[None])[0]
                                for (a, b), start in zip(self.bounds, starts)]) + self.u @ form.F.T
-        return yhat, (A, B, C), form.G
 
     def residual(self, yhat: np.ndarray) -> np.ndarray:
         return ((self.y - yhat) * self.weights).ravel()

@@ -118,7 +118,7 @@ class PredictionErrorStart(RefinementStart):
             K = np.zeros((model.n, model.p)) if model.K is None else model.K
         else:
             A, B, C, F, K = self.problem.model_matrices(theta)
-        yhat, _, _ = self.problem.simulate(theta)
+        yhat = self.problem.simulate(theta)
         errors = self.problem.y - yhat
         refined = model.with_matrices(A, B, C, F, {**info, "refine_method": METHOD}, model.divisors)
         refined.K = np.array(K, dtype=float)

@@ -45,11 +45,11 @@ __all__ = ["FirstStage", "ReferenceProjection", "fit_projection", "two_stage_rec
 # delays cover the loop's settling on the records moli is used on, and a pole near the
 # loop's slowest covers far more with fewer; a factor holds (1 + r (K + 1) + m)^2 values.
 POLES = (0.0, 0.5, 0.8, 0.9, 0.95, 0.98)
+MAX_FUNCTIONS = 128
 # Share of the estimation record, at its end, on which the bases are compared.
 HELD_OUT = 0.3
-MAX_FUNCTIONS = 128
-# Rows of the first-stage regression per coefficient of one input's FIR at the longest
-# lag count allowed, so that the noise in u_hat from the FIR's own estimate stays small.
+# Fitting rows per coefficient of one input's regression at the most functions allowed, so
+# that the noise u_hat takes from the first stage's own estimate stays small.
 ROWS_PER_COEFFICIENT = 10
 # An input of which the references explain less than this share of the variance is
 # driven by the noise, not the references: the second stage then has little to go on.
@@ -59,13 +59,13 @@ WEAK_SHARE = 0.05
 @dataclass(frozen=True)
 class FirstStage:
     """The first stage's regressors and residuals on the samples of a record, as the covariance
-    of the second stage needs them: the plant estimate depends on the FIR estimate through
-    ``u_hat``, and the FIR's estimation error widens the plant's bands (docs/closed_loop.md §3).
+    of the second stage needs them: the plant estimate depends on the first stage's through
+    ``u_hat``, whose estimation error widens the plant's bands (docs/closed_loop.md §3).
 
     Attributes
     ----------
-    design : ndarray, shape (N, 1 + r (L + 1))
-        The FIR's regressors per sample.
+    design : ndarray, shape (N, 1 + r (K + 1))
+        The first stage's regressors per sample.
     residual : ndarray, shape (N, m)
         Each plant input less its projection.
     """
@@ -83,7 +83,7 @@ class FirstStage:
 
 @dataclass(frozen=True)
 class ReferenceProjection:
-    """The first stage of the two-stage method: a FIR from the references to each plant input.
+    """The first stage of the two-stage method: each plant input on a basis of the references.
 
     Attributes
     ----------
@@ -109,20 +109,14 @@ class ReferenceProjection:
     coefficients: np.ndarray
     explained: np.ndarray
 
-    def project(self, data: IOData) -> IOData:
-        """``data`` with its plant inputs replaced by their projections and the references dropped."""
-        design, plant = self._design(data)
-        return _with_inputs(data, design @ self.coefficients, plant)
-
-    def first_stage(self, data: IOData) -> FirstStage:
-        """The regressors and residuals of the first stage on ``data`` (the record it was fitted on)."""
-        design, plant = self._design(data)
-        return FirstStage(design, data.u[:, plant] - design @ self.coefficients)
-
-    def _design(self, data: IOData) -> tuple[np.ndarray, list[int]]:
+    def project(self, data: IOData) -> tuple[IOData, FirstStage]:
+        """``data`` with its plant inputs replaced by their projections and the references
+        dropped, and the first stage's regressors and residuals on it."""
         r, plant = _columns(data, self.reference)
-        return np.concatenate([block for a, b in data.bounds
-                               for block in _basis_blocks(r[a:b], self.pole, self.functions)]), plant
+        design = np.concatenate([block for a, b in data.bounds
+                                 for block in _basis_blocks(r[a:b], self.pole, self.functions)])
+        projected = design @ self.coefficients
+        return _with_inputs(data, projected, plant), FirstStage(design, data.u[:, plant] - projected)
 
     def to_dict(self) -> dict[str, object]:
         """What a model's ``info["closed_loop"]`` records of the first stage."""
@@ -268,8 +262,8 @@ def two_stage_records(estimation: IOData, validation: IOData,
     on ``estimation`` only and applied to ``validation`` as it is), and the first stage on
     the estimation record."""
     projection = fit_projection(estimation, reference)
-    return (projection.project(estimation), projection.project(validation), projection,
-            projection.first_stage(estimation))
+    projected, first = projection.project(estimation)
+    return projected, projection.project(validation)[0], projection, first
 
 
 def without_reference(data: IOData, reference: tuple[str, ...]) -> IOData:

@@ -62,7 +62,7 @@ def refined_covariance(model: StateSpaceModel, data: IOData,
         long-run covariance spans a boundary.
     first_stage : FirstStage, optional
         The two-stage method's first stage on the samples of ``data``, whose inputs are its
-        projections: the scores are corrected for the FIR's estimation error (the
+        projections: the scores are corrected for the first stage's estimation error (the
         two-step estimator's sandwich, docs/closed_loop.md §3).
 
     Returns
@@ -126,17 +126,17 @@ def refined_covariance(model: StateSpaceModel, data: IOData,
               "kernel_width": width, "rows": N, "parameters": parameters,
               "rank": int(kept.sum()) - problem.x0_size}
     if first_stage is not None:
-        record["first_stage"] = "FIR estimation error included"
+        record["first_stage"] = "first-stage estimation error included"
     return factor, record
 
 
 def _first_stage_scores(model: StateSpaceModel, data: IOData, first_stage: FirstStage, jac: np.ndarray,
                         weights: np.ndarray) -> np.ndarray:
-    """What the FIR's estimation error adds to each sample's score, (N, k).
+    """What the first stage's estimation error adds to each sample's score, (N, k).
 
     Linearized, ``theta_hat - theta = bread sum_t (s_t - P (X^T X)^-1 X_t^T w_t)``: ``P = J^T J_beta``
-    with ``J_beta`` the weighted response of the outputs to each FIR coefficient (the model
-    driven by that regressor, centred like the inputs, through its input), ``X`` the FIR's
+    with ``J_beta`` the weighted response of the outputs to each first-stage coefficient (the model
+    driven by that regressor, centred like the inputs, through its input), ``X`` the first stage's
     regressors and ``w`` its residuals. With ``X = Q R``, ``(X^T X)^-1 X_t^T = R^-1 Q_t^T``.
     """
     design, residual = first_stage.design, first_stage.residual

@@ -174,13 +174,13 @@ class RefinementStart:
         problem, self.theta0 = self.make_problem(model, u, data)
         self.problem = problem
         theta = self.theta0.copy()
-        yhat, _, _ = problem.simulate(theta)
+        yhat = problem.simulate(theta)
         residual = problem.residual(yhat)
         self.stable = self.starts_stable(model)
         if fit_x0 and self.stable:
             # start from the best initial state for the start model (a linear problem)
             theta[-problem.x0_size :] = np.linalg.lstsq(problem.initial_state_columns(theta), residual, rcond=None)[0]
-            yhat, _, _ = problem.simulate(theta)
+            yhat = problem.simulate(theta)
             residual = problem.residual(yhat)
         self.theta, self.yhat, self.residual = theta, yhat, residual
         self.cost = float(residual @ residual)
@@ -258,11 +258,11 @@ class RefinementStart:
                     rhs.append(-penalty * scale * (theta - theta0))
                 step = np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)[0] / norms
                 trial = theta + step
-                new_yhat, _, _ = problem.simulate(trial)
-                if problem.radius(trial) >= self.max_radius:
+                if problem.radius(trial) >= self.max_radius:   # refused before it is simulated
                     rejected += 1
                     damping *= 10
                     continue
+                new_yhat = problem.simulate(trial)
                 new_res = problem.residual(new_yhat)
                 new_cost = total(new_res, trial)
                 if np.isfinite(new_cost) and new_cost < cost:
