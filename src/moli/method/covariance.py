@@ -24,7 +24,7 @@ import numpy as np
 import scipy.linalg
 
 from ..errors import DataError
-from .row_blocks import fold
+from .row_blocks import TALL_QR_BLOCK, fold, streamed_factor
 
 __all__ = ["sandwich_factor", "streamed_sandwich_factor", "long_run_covariance",
            "matrix_directions", "matrix_covariance", "sandwich_root", "check_rank"]
@@ -133,11 +133,10 @@ def sandwich_factor(
         k = phi.shape[1]
         norms = np.linalg.norm(phi, axis=0)
         norms[norms == 0] = 1.0
-        r = np.zeros((0, k + 1))
-        for start in range(0, rows, BLOCK_ROWS):
-            # block by block: a tall QR in one piece runs out of cache and is several times slower
-            block = np.column_stack([phi[start : start + BLOCK_ROWS] / norms, targets[start : start + BLOCK_ROWS, j]])
-            r = np.linalg.qr(np.concatenate([r, block]), mode="r")
+        # block by block: a tall QR in one piece runs out of cache and is several times slower
+        r = streamed_factor((np.column_stack([phi[start : start + BLOCK_ROWS] / norms,
+                                              targets[start : start + BLOCK_ROWS, j]]).T
+                             for start in range(0, rows, BLOCK_ROWS)), TALL_QR_BLOCK)
         check_rank(np.abs(np.diagonal(r)[:k]), j)
         solution = scipy.linalg.solve_triangular(r[:k, :k], r[:k, k])
         np.divide(phi, norms, out=scores)

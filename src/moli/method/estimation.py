@@ -20,7 +20,7 @@ from ..data.iodata import IOData
 from ..errors import DataError, IllConditionedWarning, OptionError
 from .covariance import matrix_covariance
 from .filters import check_alpha, divisors
-from .row_blocks import WHOLE_ROWS, fold, lagged_blocks
+from .row_blocks import WHOLE_ROWS, fold, lagged_blocks, tall_factor
 from ..models.statespace import StateSpaceModel
 from .rows import check_regression_rows, check_sample_count, regression_rows, row_breaks, row_count
 from .structure import Indices, check_indices
@@ -143,22 +143,17 @@ def _streamed_fit(
     return thetas, worst
 
 
-# Rows per block of the tall-skinny QR: blocks stay in cache, so the cost per
-# sample does not grow with the record length.
-QR_BLOCK_ROWS = 8192
+# Problems of at most this many rows (the reduced problems of a search, tens of rows)
+# are factored as one stack by np.linalg.qr; taller ones (a record's rows) one by one.
+STACKED_ROWS = 256
 
 
 def _triangular_factor(aug: np.ndarray) -> np.ndarray:
-    """R factor of a batch of tall matrices ``[phi | target]``, block by block.
-
-    The R of ``[R_previous; next block]`` is the R of all rows so far, so long
-    records are reduced in cache-sized blocks; Q is never formed, and the last
-    column of R holds ``Q^T target``.
-    """
-    r = np.linalg.qr(aug[:, :QR_BLOCK_ROWS], mode="r")
-    for start in range(QR_BLOCK_ROWS, aug.shape[1], QR_BLOCK_ROWS):
-        r = np.linalg.qr(np.concatenate([r, aug[:, start : start + QR_BLOCK_ROWS]], axis=1), mode="r")
-    return r
+    """R factors of a batch of matrices ``[phi | target]``: Q is never formed, and the last
+    column of each R holds ``Q^T target``."""
+    if aug.shape[1] <= STACKED_ROWS:
+        return np.linalg.qr(aug, mode="r")
+    return np.array([tall_factor(matrix) for matrix in aug])
 
 
 def solve_batch(phi: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -2,9 +2,9 @@
 
 The refinement (:mod:`moli.method.refinement`) minimizes the weighted simulation error
 over the observer-form pieces ``D``, ``B``, ``G`` and the feedthrough (docs/method.md
-§12). Every parameter's sensitivity is a convolution of the model's impulse response
-from one state with an input or a simulated output, computed for all parameters at once
-by FFT.
+§12). Every parameter's sensitivity is the response of the model, from one state, to
+an input or a simulated output: one block simulation per signal gives those of all
+states at once.
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from typing import Iterator
 import numpy as np
 import scipy.linalg
 
-from ..models.simulation import free_response, simulate_batch
+from ..models.simulation import free_response, simulate_batch, state_responses
 from .observer_form import ObserverForm
 
 __all__ = ["OutputErrorProblem"]
@@ -23,33 +23,10 @@ __all__ = ["OutputErrorProblem"]
 def _sensitivities(
     A: np.ndarray, C: np.ndarray, signals: np.ndarray
 ) -> tuple[np.ndarray, Iterator[tuple[int, np.ndarray]]]:
-    """Responses ``C (qI - A)^-1 e_a v`` for every state ``a`` and signal ``v``, one signal at a time.
-
-    Returns the free responses ``C A^t e_a``, (N, p, n), and an iterator of ``(c,
-    S_c)``, ``S_c[t, :, a]`` the response to signal ``c`` injected into state ``a``
-    (each array valid until the next): the responses to all ``k`` signals at once
-    would hold ``N p n k`` values, many times the record's size.
-    """
-    import scipy.fft  # slow to import: only when refining
-
-    N = signals.shape[0]
-    free = free_response(A, C, N)                     # (N, p, n): C A^t
-    # any length from 2N - 1 on keeps the circular convolution's first N samples
-    # linear; 2N itself can be a slow length (glassfurnace: 2 x 7 x 89)
-    size = scipy.fft.next_fast_len(2 * N - 1, real=True)
-    H = scipy.fft.rfft(free, size, axis=0)            # (F, p, n)
-    V = scipy.fft.rfft(signals, size, axis=0)         # (F, k)
-
-    def responses() -> Iterator[tuple[int, np.ndarray]]:
-        # stored with a stride between states, as one signal's slice of all of them
-        # at once was: the products below then sum in the same order, to the bit
-        buffer = np.zeros(free.shape + (2,))
-        for c in range(signals.shape[1]):
-            # one-step delay of (qI - A)^-1
-            buffer[1:, :, :, 0] = scipy.fft.irfft(H * V[:, c, None, None], size, axis=0)[: N - 1]
-            yield c, buffer[:, :, :, 0]
-
-    return free, responses()
+    """The free responses ``C A^t e_a``, (N, p, n), and the responses ``C (qI - A)^-1 e_a v``
+    to each signal ``v`` through each state ``a``, one signal at a time
+    (:func:`moli.models.simulation.state_responses`)."""
+    return free_response(A, C, signals.shape[0]), state_responses(A, C, signals)
 
 
 class OutputErrorProblem:

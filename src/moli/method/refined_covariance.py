@@ -32,6 +32,7 @@ from ..models.simulation import simulate_batch
 from .reference_projection import FirstStage
 from .prediction_error import METHOD as PREDICTION_ERROR, PredictionErrorStart
 from .refinement import RefinementStart
+from .row_blocks import tall_factor
 
 __all__ = ["refined_covariance", "is_refined"]
 
@@ -92,7 +93,8 @@ def refined_covariance(model: StateSpaceModel, data: IOData,
     (N, p), k = data.y.shape, jac.shape[1]
     norms = np.linalg.norm(jac, axis=0)
     norms[norms == 0] = 1.0
-    rows = [jac / norms]
+    # the singular values and right vectors of the record-long matrix are its triangular factor's
+    rows = [tall_factor(jac / norms)]
     ridge = float(model.info.get("refine_ridge", 0.0))
     if ridge > 0:
         # the ridge's penalty in the column-scaled parameters: sqrt(ridge) per model

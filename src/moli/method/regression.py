@@ -20,7 +20,7 @@ from ..errors import OptionError
 from .estimation import solve_batch
 from .regularization import REGULARIZATIONS, ridge_gcv
 from .filters import _needs_real, filter_rows
-from .row_blocks import WHOLE_ROWS, lagged_blocks, streamed_factor
+from .row_blocks import TALL_BLOCK_ROWS, TALL_QR_BLOCK, WHOLE_ROWS, WHOLE_TALL_ROWS, lagged_blocks, streamed_factor
 from .structure import Indices
 
 __all__ = ["RegressionCache", "quotient_map", "reduced_problems"]
@@ -283,6 +283,10 @@ def _record_factors(z: np.ndarray, alphas: Sequence[np.ndarray], extra: int) -> 
     below = _below_diagonal(min(rows, cols), cols)
     factors = []
     for matrix in columns:
+        if rows > WHOLE_TALL_ROWS:   # a long window: folded in blocks that stay in cache
+            factors.append(streamed_factor((matrix[:, i : i + TALL_BLOCK_ROWS] for i in range(0, rows, TALL_BLOCK_ROWS)),
+                                           TALL_QR_BLOCK))
+            continue
         factored = scipy.linalg.lapack.dgeqrt(block, matrix.T, overwrite_a=True)[0]
         factor = np.array(factored[: min(rows, cols)], order="C")
         factor[below] = 0.0          # the reflectors LAPACK leaves below R

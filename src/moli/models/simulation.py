@@ -10,11 +10,12 @@ matrix products. Cost and memory stay linear in ``N``.
 from __future__ import annotations
 
 import math
+from typing import Iterator
 
 import numpy as np
 from numpy.lib.stride_tricks import as_strided
 
-__all__ = ["simulate_batch", "free_response"]
+__all__ = ["simulate_batch", "free_response", "state_responses"]
 
 
 def _block_length(N: int) -> int:
@@ -74,12 +75,7 @@ def simulate_batch(
     ub[:N] = u
     ub = ub.reshape(nb, L * m)
     with np.errstate(all="ignore"):
-        # powers[k] = A^k, k = 0..L, one product at a time: squaring (doubling) loses
-        # many digits on the strongly non-normal observer forms MOLI can produce
-        powers = np.empty((L + 1, R, n, n))
-        powers[0] = np.eye(n)
-        for k in range(L):
-            np.matmul(powers[k], A, out=powers[k + 1])
+        powers = _powers(A, L)
         CA = C[None] @ powers[:L]                       # (L, R, p, n)
         markov = CA @ B[None]                           # (L, R, p, m): C A^k B
         AB = powers[:L] @ B[None]                       # (L, R, n, m): A^k B
@@ -90,6 +86,19 @@ def simulate_batch(
         # in place: a second record-sized temporary costs more than the product
         y += states @ obs
     return y.reshape(R, nb * L, p)[:, :N]
+
+
+def _powers(A: np.ndarray, L: int) -> np.ndarray:
+    """``A^k``, k = 0..L, of a batch ``A`` (R, n, n): shape (L + 1, R, n, n).
+
+    One product at a time: squaring (doubling) loses many digits on the strongly
+    non-normal observer forms MOLI can produce.
+    """
+    powers = np.empty((L + 1,) + A.shape)
+    powers[0] = np.eye(A.shape[-1])
+    for k in range(L):
+        np.matmul(powers[k], A, out=powers[k + 1])
+    return powers
 
 
 def _block_states(step: np.ndarray, drive: np.ndarray, x0: np.ndarray | None, R: int, n: int) -> np.ndarray:
@@ -122,3 +131,52 @@ def free_response(A: np.ndarray, C: np.ndarray, N: int) -> np.ndarray:
         np.zeros((N, 1)), x0=np.eye(n),
     )
     return y.transpose(1, 2, 0)
+
+
+def state_responses(A: np.ndarray, C: np.ndarray, signals: np.ndarray) -> Iterator[tuple[int, np.ndarray]]:
+    """Responses ``C (qI - A)^-1 e_a v_c`` of each signal ``v_c`` injected into each state ``a``.
+
+    One signal at a time: yields ``(c, S_c)`` with ``S_c[t, :, a]`` the response to
+    signal ``c`` through state ``a``, shape (N, p, n), each array valid until the next
+    (all ``k`` signals at once would hold ``N p n k`` values, many times the record's).
+    ``S_c[0]`` is zero: ``(qI - A)^-1`` delays by one sample.
+
+    In blocks of ``L`` samples, as :func:`simulate_batch`: the state matrix ``X`` (n, n)
+    of ``X_{t+1} = A X_t + v_c(t) I`` at the block starts comes from a recursion over the
+    blocks of all signals at once, and each block's responses are a Toeplitz product of
+    its samples by ``C A^k`` plus ``C A^i X_b``.
+
+    Parameters
+    ----------
+    A : ndarray, shape (n, n)
+    C : ndarray, shape (p, n)
+    signals : ndarray, shape (N, k)
+    """
+    n, p = A.shape[0], C.shape[0]
+    N, k = signals.shape
+    L = _block_length(N)
+    nb = -(-N // L)
+    padded = np.zeros((nb * L, k))
+    padded[:N] = signals
+    blocks = np.ascontiguousarray(padded.reshape(nb, L, k).transpose(2, 0, 1))    # (k, nb, L)
+    with np.errstate(all="ignore"):
+        powers = _powers(A[None], L)[:, 0]                                       # (L + 1, n, n)
+        markov = C @ powers[:L]                                                  # (L, p, n): C A^i
+        toeplitz = _block_toeplitz(markov.reshape(L, 1, p * n, 1))[0]            # (L, L p n)
+        # X_{b+1} = A^L X_b + sum_j v(bL + j) A^(L-1-j), every signal's blocks at once
+        drives = (blocks @ powers[L - 1 :: -1].reshape(L, n * n)).reshape(k, nb, n, n)
+        states = np.zeros((nb, k, n, n))
+        step = powers[L]
+        for b in range(nb - 1):
+            np.matmul(step, states[b], out=states[b + 1])
+            states[b + 1] += drives[:, b]
+        states = np.ascontiguousarray(states.transpose(1, 0, 2, 3))            # (k, nb, n, n)
+        observability = markov.reshape(L * p, n)
+
+        def responses() -> Iterator[tuple[int, np.ndarray]]:
+            for c in range(k):
+                within = (blocks[c] @ toeplitz).reshape(nb, L * p, n)
+                within += observability @ states[c]
+                yield c, within.reshape(nb * L, p, n)[:N]
+
+        return responses()
