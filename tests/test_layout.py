@@ -20,7 +20,7 @@ import moli
 PACKAGE = Path(moli.__file__).resolve().parent
 REPO = PACKAGE.parents[1]
 # Pipeline order: a module may import its own layer and the layers before it.
-LAYERS = ("errors", "data", "models", "validation", "method", "streaming", "fleets", "systems", "control",
+LAYERS = ("errors", "numerics", "data", "models", "validation", "method", "streaming", "fleets", "systems", "control",
           "app")
 # About a screen or two per module; a little slack over the 400-line guide.
 MAX_LINES = 420

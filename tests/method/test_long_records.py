@@ -12,6 +12,7 @@ import moli
 from moli.method import covariance, estimation, regression, row_blocks, scoring, uncertainty
 from moli.method.filters import filter_polynomial
 from moli.method.long_records import search_window
+from moli.numerics import triangular
 
 
 def _record(N: int, seed: int = 0, noise: float = 0.1) -> moli.IOData:
@@ -46,7 +47,7 @@ def test_lagged_blocks_are_the_delays_of_each_segment_filtered_from_rest(block_r
 
 def test_streamed_factor_has_the_gram_matrix_of_the_whole_matrix():
     X = np.random.default_rng(2).standard_normal((1000, 7))
-    R = row_blocks.streamed_factor(X[i : i + 97].T for i in range(0, 1000, 97))
+    R = triangular.streamed_factor(X[i : i + 97].T for i in range(0, 1000, 97))
     assert R.shape == (7, 7) and np.allclose(np.tril(R, -1), 0.0)
     # R^T R = X^T X in exact arithmetic; Householder QR keeps it to a few eps of |X|^2
     np.testing.assert_allclose(R.T @ R, X.T @ X, rtol=0, atol=1e-11 * np.abs(X.T @ X).max())
@@ -200,16 +201,16 @@ def test_auto_delays_of_a_long_record_come_from_its_search_window():
 
 def test_tall_factor_in_row_blocks_has_the_gram_matrix_of_the_whole(monkeypatch):
     X = np.random.default_rng(12).standard_normal((5000, 9))
-    whole = row_blocks.tall_factor(X)
+    whole = triangular.tall_factor(X)
     # both Householder, so the same signs; X is well conditioned (Gaussian, 5000 x 9), so
     # two backward-stable factorizations agree to a few hundred eps of |R|
     reference = np.linalg.qr(X, mode="r")
     np.testing.assert_allclose(whole, reference, rtol=0, atol=1e-12 * np.abs(reference).max())
-    monkeypatch.setattr(row_blocks, "WHOLE_TALL_ROWS", 1000)
-    monkeypatch.setattr(row_blocks, "TALL_BLOCK_ROWS", 700)
-    blocked = row_blocks.tall_factor(X)
+    monkeypatch.setattr(triangular, "WHOLE_TALL_ROWS", 1000)
+    monkeypatch.setattr(triangular, "TALL_BLOCK_ROWS", 700)
+    blocked = triangular.tall_factor(X)
     # sums of squares in blocks: the norms to round-off
-    np.testing.assert_allclose(row_blocks.column_norms(X), np.linalg.norm(X, axis=0), rtol=1e-13)
+    np.testing.assert_allclose(triangular.column_norms(X), np.linalg.norm(X, axis=0), rtol=1e-13)
     # Householder QR in another order: R^T R = X^T X to a few eps of |X|^2
     np.testing.assert_allclose(blocked.T @ blocked, whole.T @ whole, rtol=0, atol=1e-11 * np.abs(X.T @ X).max())
 

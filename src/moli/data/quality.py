@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import DataError, DataQualityWarning
+from ..numerics.triangular import streamed_factor
 from .arguments import integer
 from .iodata import IOData
 from .outliers import flag_outliers
@@ -126,10 +127,8 @@ def _exciting(u: np.ndarray, L: int, bounds: tuple[tuple[int, int], ...]) -> boo
     else:
         # a long record: the Hankel matrix's triangular factor, built block by block,
         # has its singular values and column norms without holding L copies of u
-        hankel = np.zeros((0, L * m))
-        for a, b in spans:
-            for start in range(a, b, BLOCK_ROWS):
-                hankel = np.linalg.qr(np.concatenate([hankel, windows(start, min(start + BLOCK_ROWS, b))]), mode="r")
+        hankel = streamed_factor(windows(start, min(start + BLOCK_ROWS, b)).T
+                                 for a, b in spans for start in range(a, b, BLOCK_ROWS))
     norms = np.linalg.norm(hankel, axis=0)
     s = np.linalg.svd(hankel / np.where(norms > 0, norms, 1.0), compute_uv=False)
     return bool(s[-1] > 0 and s[0] / s[-1] <= EXCITATION_CONDITION)

@@ -24,7 +24,7 @@ import numpy as np
 import scipy.linalg
 
 from ..errors import DataError
-from .row_blocks import TALL_QR_BLOCK, fold, streamed_factor
+from ..numerics.triangular import TALL_QR_BLOCK, fold, streamed_factor
 
 __all__ = ["sandwich_factor", "streamed_sandwich_factor", "long_run_covariance",
            "matrix_directions", "matrix_covariance", "sandwich_root", "check_rank"]

@@ -27,7 +27,7 @@ from ..models.simulation import free_response, simulate_batch
 from ..models.statespace import StateSpaceModel
 from ..validation.prediction import deviations, predicted_deviations
 from ..validation.whitening import fit_ar
-from .row_blocks import column_norms, tall_factor
+from ..numerics.triangular import column_norms, tall_factor
 
 __all__ = ["estimate_noise_model"]
 

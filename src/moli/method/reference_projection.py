@@ -37,7 +37,8 @@ import numpy as np
 
 from ..data.iodata import IOData
 from ..errors import DataError, WeakReferenceWarning
-from .row_blocks import BLOCK_ROWS, streamed_factor
+from ..numerics.triangular import streamed_factor
+from .row_blocks import BLOCK_ROWS
 
 __all__ = ["FirstStage", "ReferenceProjection", "fit_projection", "two_stage_records", "without_reference"]
 

@@ -32,7 +32,7 @@ from ..models.simulation import simulate_batch
 from .reference_projection import FirstStage
 from .prediction_error import METHOD as PREDICTION_ERROR, PredictionErrorStart
 from .refinement import RefinementStart
-from .row_blocks import tall_factor
+from ..numerics.triangular import tall_factor
 
 __all__ = ["refined_covariance", "is_refined"]
 

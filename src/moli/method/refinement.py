@@ -14,8 +14,8 @@ optionally the initial state ``x0`` of the estimation record, a nuisance paramet
 fraction of the data term's own curvature and does not depend on the units.
 
 The solver is Levenberg-Marquardt with analytic Jacobians: every parameter's
-sensitivity is a convolution of the model's impulse response from one state with an
-input or a simulated output, computed for all parameters at once by FFT. A step is
+sensitivity is the model's response, from one state, to an input or a simulated output,
+one block simulation per signal for all states at once. A step is
 accepted only if it lowers ``V`` *and* keeps every pole inside the circle of radius
 ``max_radius``, so a stable start stays stable and ``V`` never increases.
 """
@@ -32,7 +32,7 @@ from ..data.iodata import IOData
 from ..errors import DataError, OptionError
 from .observer_form import observer_form
 from .output_error import OutputErrorProblem
-from .row_blocks import column_norms, tall_factor
+from ..numerics.triangular import column_norms, tall_factor
 from ..models.delays import shift_inputs
 from ..models.statespace import StateSpaceModel
 

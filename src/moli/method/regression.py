@@ -20,7 +20,8 @@ from ..errors import OptionError
 from .estimation import solve_batch
 from .regularization import REGULARIZATIONS, ridge_gcv
 from .filters import _needs_real, filter_rows
-from .row_blocks import TALL_BLOCK_ROWS, TALL_QR_BLOCK, WHOLE_ROWS, WHOLE_TALL_ROWS, lagged_blocks, streamed_factor
+from ..numerics.triangular import QR_BLOCK, TALL_BLOCK_ROWS, TALL_QR_BLOCK, WHOLE_TALL_ROWS, streamed_factor
+from .row_blocks import WHOLE_ROWS, lagged_blocks
 from .structure import Indices
 
 __all__ = ["RegressionCache", "quotient_map", "reduced_problems"]
@@ -29,10 +30,6 @@ FEEDTHROUGH_CHOICES = (False, True, "auto")
 # Significance level of the "auto" feedthrough test. Strict, because the equation
 # errors are coloured and the nominal F distribution then overstates significance.
 FEEDTHROUGH_LEVEL = 1e-3
-# Block size of the QR of the filtered data: the record-long matrices have a few dozen
-# columns, too few for LAPACK's blocked dgeqrf (which then applies one reflector at a
-# time); dgeqrt in blocks of 8 took 17-44 % less time on 433 x 30 to 645 x 90
-QR_BLOCK = 8
 # Filters factored whole at a time hold at most this many bytes of matrices: sharing
 # one allocation saves time on short records, and the bound keeps it off long ones.
 BATCH_BYTES = 2**25

@@ -19,6 +19,7 @@ from ..errors import DataError, OptionError
 from ..models.delays import shift_inputs
 from ..models.simulation import free_response, simulate_batch
 from ..models.statespace import StateSpaceModel
+from ..numerics.triangular import tall_factor
 
 __all__ = ["predict"]
 
@@ -144,7 +145,10 @@ def initial_state(model: StateSpaceModel, u: np.ndarray, y: np.ndarray, horizon:
         basis = free_response(model.A - model.K @ model.C, gain, N - horizon + 1)
         if horizon > 1:  # the samples before any output is seen
             basis = np.concatenate([free_response(model.A, model.C, horizon - 1), basis])
-    solution, *_ = np.linalg.lstsq(basis.reshape(-1, n), (y - forced).reshape(-1), rcond=None)
+    # the record-long problem reduced to its triangular factor: same solution, lstsq's
+    # rank cut-off on the same singular values
+    factor = tall_factor(np.column_stack([basis.reshape(-1, n), (y - forced).reshape(-1)]))
+    solution, *_ = np.linalg.lstsq(factor[:n, :n], factor[:n, n], rcond=None)
     return solution
 
 

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import DataError
+from ..numerics.triangular import tall_factor
 
 __all__ = ["ARFit", "fit_ar"]
 
@@ -75,7 +76,7 @@ def fit_ar(x: np.ndarray, max_order: int) -> ARFit:
     rows = N - h
     # lags 1..h then the target, so that each order's regressors are a leading block
     columns = np.concatenate([z[h - i : N - i] for i in range(1, h + 1)] + [z[h:]], axis=1)
-    R = np.linalg.qr(columns, mode="r")
+    R = tall_factor(columns)
     tail = R[:, h * c :]
     best, best_aic = 0, np.inf
     for order in range(h + 1):
