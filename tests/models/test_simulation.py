@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from hypothesis import given, settings, strategies as st
 
-from moli.models.simulation import simulate_batch, state_responses
+from moli.models.simulation import free_response, simulate_batch, state_responses
 
 
 def _stable(rng: np.random.Generator, n: int, radius: float) -> np.ndarray:
@@ -50,3 +50,17 @@ def test_state_responses_sum_to_the_simulation_of_the_input_matrix():
     simulated = simulate_batch(A[None], B[None], C[None], u)[0]
     # two block computations of one linear map: round-off of the outputs' size
     np.testing.assert_allclose(total, simulated, rtol=0, atol=1e-12 * np.abs(simulated).max())
+
+
+def test_a_free_response_cut_where_it_decays_is_the_head_of_the_whole():
+    rng = np.random.default_rng(5)
+    A, C = _stable(rng, 4, 0.9), rng.standard_normal((2, 4))
+    whole = free_response(A, C, 50000)
+    cut = free_response(A, C, 50000, negligible=1e-17)
+    # 0.9^4096 is far below 1e-17: the first length tried is kept
+    assert cut.shape == (4096, 2, 4)
+    # the same simulation, shorter (in blocks of another length: round-off of its size)
+    np.testing.assert_allclose(cut, whole[:4096], rtol=0, atol=1e-12 * np.abs(whole).max())
+    assert np.abs(whole[4096:]).max() <= 1e-17 * np.abs(whole).max()
+    slow = _stable(rng, 4, 0.9999)                              # not decayed by 50000 samples
+    assert free_response(slow, C, 50000, negligible=1e-17).shape[0] == 50000

@@ -67,6 +67,24 @@ def test_estimated_initial_state_gives_exact_predictions_on_noise_free_data():
     assert np.abs(moli.predict(model, data, horizon=1, x0="zero") - data.y).max() > 1e-3
 
 
+def test_the_initial_state_of_a_long_record_comes_from_the_samples_before_its_response_decays():
+    from moli.validation.prediction import initial_state
+
+    rng = np.random.default_rng(4)
+    model = random_system(3, 2, 1, rng)         # poles inside 0.9: decayed to 1e-17 in a few hundred samples
+    N = 20000
+    u = rng.standard_normal((N, 1))
+    x0 = rng.standard_normal(3)
+    y = model.simulate(u, x0) + 0.1 * rng.standard_normal((N, 2))
+    found = initial_state(model, u, y)
+    # independent route: the whole record's least squares, every row of the free response
+    free = np.stack([model.simulate(np.zeros((N, 1)), e) for e in np.eye(3)], axis=2)
+    expected = np.linalg.lstsq(free.reshape(-1, 3), (y - model.simulate(u)).reshape(-1), rcond=None)[0]
+    # the rows left out carry a free response below 1e-17 of its largest entry: the
+    # solutions agree to round-off of the (well-conditioned, 3-state) problem
+    np.testing.assert_allclose(found, expected, rtol=1e-9, atol=1e-12)
+
+
 def test_long_horizons_and_zero_gain_are_the_simulation():
     rng = np.random.default_rng(2)
     model = _with_gain(random_system(3, 2, 2, rng), rng)

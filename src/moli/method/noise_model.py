@@ -28,6 +28,7 @@ from ..models.statespace import StateSpaceModel
 from ..validation.prediction import deviations, predicted_deviations
 from ..validation.whitening import fit_ar
 from ..numerics.triangular import column_norms, tall_factor
+from ..validation.prediction import fit_free_response
 
 __all__ = ["estimate_noise_model"]
 
@@ -113,8 +114,8 @@ def _significant(A: np.ndarray, C: np.ndarray, K: np.ndarray, e: np.ndarray) -> 
     import scipy.stats
 
     N, p = e.shape
-    free = free_response(A, C, N).reshape(N * p, -1)
-    white = e - (free @ np.linalg.lstsq(free, e.ravel(), rcond=None)[0]).reshape(N, p)
+    free = free_response(A, C, N)
+    white = e - free @ fit_free_response(free, e)
     statistic = N * (_log_det_cov(white) - _log_det_cov(_innovations(A, C, K, e)))
     return bool(statistic > scipy.stats.chi2.ppf(0.95, K.size))
 

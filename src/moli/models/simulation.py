@@ -17,6 +17,9 @@ from numpy.lib.stride_tricks import as_strided
 
 __all__ = ["simulate_batch", "free_response", "state_responses"]
 
+# The first length free_response(..., negligible=...) tries, doubled until the response has decayed
+DECAY_START = 4096
+
 
 def _block_length(N: int) -> int:
     # The Toeplitz product costs N L per model and the loops L + N / L steps. The
@@ -123,14 +126,24 @@ def _block_states(step: np.ndarray, drive: np.ndarray, x0: np.ndarray | None, R:
     return np.ascontiguousarray(states.reshape(nb, R, n).transpose(1, 0, 2))
 
 
-def free_response(A: np.ndarray, C: np.ndarray, N: int) -> np.ndarray:
-    """Responses ``C A^k e_i`` to each unit initial state, shape (N, p, n)."""
+def free_response(A: np.ndarray, C: np.ndarray, N: int, negligible: float | None = None) -> np.ndarray:
+    """Responses ``C A^k e_i`` to each unit initial state, shape (N, p, n).
+
+    With ``negligible``, only the first ``K <= N`` samples: ``K`` is the first of 4096,
+    8192, ... (or ``N``) at which the response has decayed below ``negligible`` times its
+    largest entry, so that a long record does not simulate (nor later factor) samples
+    that hold nothing but round-off, or subnormal numbers.
+    """
     n = A.shape[0]
-    y = simulate_batch(
-        np.broadcast_to(A, (n, n, n)), np.zeros((n, n, 1)), np.broadcast_to(C, (n,) + C.shape),
-        np.zeros((N, 1)), x0=np.eye(n),
-    )
-    return y.transpose(1, 2, 0)
+    K = N if negligible is None else min(N, DECAY_START)
+    while True:
+        y = simulate_batch(
+            np.broadcast_to(A, (n, n, n)), np.zeros((n, n, 1)), np.broadcast_to(C, (n,) + C.shape),
+            np.zeros((K, 1)), x0=np.eye(n),
+        ).transpose(1, 2, 0)
+        if K == N or np.max(np.abs(y[-1])) <= negligible * np.max(np.abs(y)):
+            return y
+        K = min(2 * K, N)
 
 
 def state_responses(A: np.ndarray, C: np.ndarray, signals: np.ndarray) -> Iterator[tuple[int, np.ndarray]]:

@@ -21,7 +21,11 @@ from ..models.simulation import free_response, simulate_batch
 from ..models.statespace import StateSpaceModel
 from ..numerics.triangular import tall_factor
 
-__all__ = ["predict"]
+__all__ = ["predict", "fit_free_response"]
+
+# Rows of a free response below this share of its largest entry (a tenth of the state's
+# own round-off) add nothing to an initial state's least squares.
+NEGLIGIBLE_FREE_RESPONSE = 1e-17
 
 X0_CHOICES = ("zero", "estimate")
 
@@ -138,18 +142,36 @@ def initial_state(model: StateSpaceModel, u: np.ndarray, y: np.ndarray, horizon:
     N, n = y.shape[0], model.n
     if horizon is None or horizon > N - 1:
         forced = model.simulate(u)
-        basis = free_response(model.A, model.C, N)
+        basis = free_response(model.A, model.C, N, NEGLIGIBLE_FREE_RESPONSE)
     else:
         forced = _predicted(model, u, y, horizon, None)
         gain = model.C @ np.linalg.matrix_power(model.A, horizon - 1)
         basis = free_response(model.A - model.K @ model.C, gain, N - horizon + 1)
         if horizon > 1:  # the samples before any output is seen
             basis = np.concatenate([free_response(model.A, model.C, horizon - 1), basis])
-    # the record-long problem reduced to its triangular factor: same solution, lstsq's
-    # rank cut-off on the same singular values
-    factor = tall_factor(np.column_stack([basis.reshape(-1, n), (y - forced).reshape(-1)]))
-    solution, *_ = np.linalg.lstsq(factor[:n, :n], factor[:n, n], rcond=None)
-    return solution
+    return fit_free_response(basis, (y - forced)[: basis.shape[0]])
+
+
+def fit_free_response(basis: np.ndarray, target: np.ndarray) -> np.ndarray:
+    """Least-squares ``x`` of ``basis x ~ target``: the initial state whose free response best
+    fits ``target``.
+
+    ``basis`` (N, p, n) is a free response (``C A^t e_a``), ``target`` (N, p) (the rows of a
+    longer record after a free response cut where it decayed add nothing). Only the rows
+    up to the last where the basis is above :data:`NEGLIGIBLE_FREE_RESPONSE` of its largest
+    entry enter: later rows add nothing to the solution but round-off (and a stable model's
+    response has decayed there to subnormal numbers, on which arithmetic is many times
+    slower). The problem is reduced to its triangular factor, and lstsq's rank cut-off
+    applies to the same singular values.
+    """
+    N, p, n = basis.shape
+    size = np.max(np.abs(basis), axis=(1, 2))
+    above = np.flatnonzero(size > NEGLIGIBLE_FREE_RESPONSE * np.max(size, initial=0.0))
+    rows = int(above[-1]) + 1 if above.size else 0
+    if rows == 0 or not np.all(np.isfinite(size)):
+        return np.linalg.lstsq(basis.reshape(-1, n), target.reshape(-1), rcond=None)[0]
+    factor = tall_factor(np.column_stack([basis[:rows].reshape(-1, n), target[:rows].reshape(-1)]))
+    return np.linalg.lstsq(factor[:n, :n], factor[:n, n], rcond=None)[0]
 
 
 def predicted_deviations(
