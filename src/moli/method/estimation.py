@@ -21,6 +21,7 @@ from ..errors import DataError, IllConditionedWarning, OptionError
 from .covariance import matrix_covariance
 from .filters import check_alpha, divisors
 from ..numerics.triangular import fold, tall_factor
+from .recursive_filter import recursive_filter
 from .row_blocks import WHOLE_ROWS, lagged_blocks
 from ..models.statespace import StateSpaceModel
 from .rows import check_regression_rows, check_sample_count, regression_rows, row_breaks, row_count
@@ -51,11 +52,9 @@ def filtered_regressors(z: np.ndarray, alpha_j: np.ndarray) -> np.ndarray:
     ndarray, shape (N, c * l)
         Column ``r * l + i`` holds channel ``r`` filtered by ``q^i / alpha_j``.
     """
-    from scipy.signal import lfilter  # slow to import: only when filtering
-
     N, c = z.shape
     l = alpha_j.size - 1
-    base = lfilter([1.0], alpha_j, z, axis=0)
+    base = recursive_filter([1.0], alpha_j, z, axis=0)
     phi = np.zeros((N, c, l))
     for i in range(l):
         delay = l - i

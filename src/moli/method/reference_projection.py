@@ -38,6 +38,7 @@ import numpy as np
 from ..data.iodata import IOData
 from ..errors import DataError, WeakReferenceWarning
 from ..numerics.triangular import streamed_factor
+from .recursive_filter import recursive_filter
 from .row_blocks import BLOCK_ROWS
 
 __all__ = ["FirstStage", "ReferenceProjection", "fit_projection", "two_stage_records", "without_reference"]
@@ -142,8 +143,6 @@ def _columns(data: IOData, reference: tuple[str, ...]) -> tuple[np.ndarray, list
 def _basis_blocks(r: np.ndarray, pole: float, count: int, block_rows: int = BLOCK_ROWS) -> Iterator[np.ndarray]:
     """Row blocks of ``[1, r, L_0 r, ..., L_{K-1} r]`` (function-major) for one segment, each
     filter started in the steady state of ``r`` held at its first value."""
-    from scipy.signal import lfilter  # slow to import: only for the two-stage method
-
     gain = math.sqrt(1.0 - pole**2)
     first, allpass, denominator = np.array([0.0, gain]), np.array([-pole, 1.0]), np.array([1.0, -pole])
     # lfilter's state before the first sample, in the steady state of r held at r[0]: the
@@ -157,7 +156,7 @@ def _basis_blocks(r: np.ndarray, pole: float, count: int, block_rows: int = BLOC
         signal = chunk
         for k in range(count):
             b = first if k == 0 else allpass
-            signal, states[k] = lfilter(b, denominator, signal, axis=0, zi=states[k])
+            signal, states[k] = recursive_filter(b, denominator, signal, axis=0, zi=states[k])
             columns.append(signal)
         yield np.concatenate(columns, axis=1)
 

@@ -21,6 +21,7 @@ from .estimation import solve_batch
 from .regularization import REGULARIZATIONS, ridge_gcv
 from .filters import _needs_real, filter_rows
 from ..numerics.triangular import QR_BLOCK, TALL_BLOCK_ROWS, TALL_QR_BLOCK, WHOLE_TALL_ROWS, streamed_factor
+from .recursive_filter import recursive_filter
 from .row_blocks import WHOLE_ROWS, lagged_blocks
 from .structure import Indices
 
@@ -259,8 +260,6 @@ class RegressionCache:
 def _record_factors(z: np.ndarray, alphas: Sequence[np.ndarray], extra: int) -> list[np.ndarray]:
     """Triangular factors of ``[xi, y]`` (``extra`` columns of ``z`` after ``xi``) of one record,
     one per filter polynomial of the same degree, from a zero filter state."""
-    from scipy.signal import lfilter  # scipy.signal is slow to import: only when filtering
-
     nbar = alphas[0].size - 1
     N, c = z.shape
     signals = np.ascontiguousarray(z.T)
@@ -271,7 +270,7 @@ def _record_factors(z: np.ndarray, alphas: Sequence[np.ndarray], extra: int) -> 
     for i, a in enumerate(alphas):
         # column r nbar + t (channel r filtered by q^t/alpha, from sample nbar
         # on) is the filtered channel r from sample t on
-        base = lfilter([1.0], a, signals, axis=-1)
+        base = recursive_filter([1.0], a, signals, axis=-1)
         s_r, s_k = base.strides
         delayed = as_strided(base, (c, nbar, rows), (s_r, s_k, s_k), writeable=False)
         np.copyto(columns[i, : c * nbar].reshape(c, nbar, rows), delayed)

@@ -19,6 +19,8 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
+from .recursive_filter import recursive_filter
+
 __all__ = ["BLOCK_ROWS", "WHOLE_ROWS", "lagged_blocks"]
 
 # Rows per block: a block of a few dozen columns is then a few MB, small enough to stay
@@ -55,8 +57,6 @@ def lagged_blocks(
         ``lagged[r, t, i] = base[r, k0 + i - L + t]``, base filtered from the segment's
         start at rest (a read-only view, valid until the next block).
     """
-    from scipy.signal import lfilter  # slow to import: only when filtering
-
     c = signals.shape[0]
     L = a.size - 1
     for start, stop in segments:
@@ -66,7 +66,7 @@ def lagged_blocks(
         for k0 in range(start + skip, stop, block_rows):
             k1 = min(k0 + block_rows, stop)
             if L:
-                fresh, state = lfilter([1.0], a, signals[:, done:k1], axis=-1, zi=state)
+                fresh, state = recursive_filter([1.0], a, signals[:, done:k1], axis=-1, zi=state)
             else:
                 fresh = signals[:, done:k1]
             window = np.concatenate([kept, fresh], axis=1)[:, -(k1 - k0 + L):]   # base[k0 - L : k1]

@@ -14,9 +14,11 @@ import functools
 
 import numpy as np
 
+from ..method.recursive_filter import recursive_filter
+
 __all__ = ["CausalRegressors"]
 
-# Zero samples per lfilter call of a free response: long chunks in bounded memory.
+# Zero samples per filter call of a free response: long chunks in bounded memory.
 FREE_RESPONSE_PIECE = 65536
 
 
@@ -80,11 +82,7 @@ class CausalRegressors:
     def _filter(self, r: int, z: np.ndarray) -> np.ndarray:
         """Filter ``z`` by candidate ``r`` from its state; the last ``l`` filtered samples
         before ``z`` then the filtered ``z``, shape (l + N, c). Updates the state."""
-        from scipy.signal import lfilter  # slow to import: only when filtering
-
-        if not z.shape[0]:  # lfilter returns an uninitialised state for no samples
-            return self._tail[r].copy()
-        base, self._zi[r] = lfilter([1.0], self.filters[r], z, axis=0, zi=self._zi[r])
+        base, self._zi[r] = recursive_filter([1.0], self.filters[r], z, axis=0, zi=self._zi[r])
         extended = np.concatenate([self._tail[r], base])
         self._tail[r] = extended[z.shape[0]:]
         return extended
@@ -106,7 +104,7 @@ class CausalRegressors:
         l = self.degree
         R = self.filters.shape[0]
         out = np.empty((R, N, c, l))
-        # One C-level lfilter call per candidate and chunk: its cost is amortised
+        # One LAPACK filter call per candidate and chunk: its cost is amortised
         # over the chunk, while the estimation itself is batched across the bank.
         for r in range(R):
             extended = self._filter(r, z)

@@ -108,9 +108,8 @@ def empirical_frequency_response(
             f"{count} segments of {length} samples cannot separate {m} inputs: "
             f"give a shorter nperseg (at most {2 * N // (m + 1)}) or a longer record"
         )
-    import scipy.signal  # slow to import: only when estimating from data
-
-    window = scipy.signal.get_window("hann", length)
+    # the periodic Hann window (scipy.signal.get_window("hann"), whose import is slow)
+    window = 0.5 - 0.5 * np.cos(2 * np.pi * np.arange(length) / length)
     z = np.concatenate([data.y, data.u], axis=1)
     segments = np.lib.stride_tricks.sliding_window_view(z, length, axis=0)[::step]  # (K, p+m, L)
     segments = (segments - segments.mean(axis=2, keepdims=True)) * window
