@@ -21,6 +21,7 @@ from ..models.statespace import StateSpaceModel
 from ..method.search import PathStep
 from ..validation.comparison import Comparison
 from ..validation.frequency import EmpiricalResponse, empirical_frequency_response
+from .figure_ticks import trim_ticks
 
 __all__ = [
     "singular_values",
@@ -57,6 +58,7 @@ def save_figure(fig: Figure, path: Path) -> bytes:
 
     The format follows the suffix of ``path`` (PNG without one).
     """
+    trim_ticks(fig)
     buffer = io.BytesIO()
     fig.savefig(buffer, format=path.suffix[1:].lower() or "png", dpi=110)
     write_atomic(path, buffer.getvalue())
