@@ -56,33 +56,44 @@ def recursive_filter(
     zf : ndarray
         Only when ``zi`` is given: the final state, the shape of ``zi``.
     """
-    a = np.asarray(a, dtype=float)
-    b = np.asarray(b, dtype=float) / a[0]
-    a = a / a[0]
-    d = max(a.size, b.size) - 1
-    a, b = np.pad(a, (0, d + 1 - a.size)), np.pad(b, (0, d + 1 - b.size))
-    moved = np.moveaxis(np.asarray(x, dtype=float), axis, -1)
+    b, a = _coefficients(b, a)
+    d = a.size - 1
+    x = np.asarray(x, dtype=float)
+    last = axis in (-1, x.ndim - 1)
+    moved = x if last else np.moveaxis(x, axis, -1)
     shape, N = moved.shape, moved.shape[-1]
     signals = moved.reshape(math.prod(shape[:-1]), N)
     # v, one signal per row (C order: the columns of a Fortran right-hand side, no copy)
-    v = np.empty(signals.shape)
-    np.multiply(signals, b[0], out=v)
+    v = np.array(signals, order="C") if b[0] == 1.0 else np.multiply(signals, b[0], order="C")
     for k in range(1, min(d, N - 1) + 1):
         if b[k]:
             v[:, k:] += b[k] * signals[:, :-k]
     if zi is not None:
-        state = np.moveaxis(np.asarray(zi, dtype=float), axis, -1).reshape(signals.shape[0], d)
+        zi = np.asarray(zi, dtype=float)
+        state = (zi if last else np.moveaxis(zi, axis, -1)).reshape(signals.shape[0], d)
         v[:, : min(d, N)] += state[:, :N]
     if d and N and v.shape[0]:
-        band = np.empty((d + 1, N), order="F")
-        band[:] = a[:, None]           # row k: the k-th subdiagonal, a_k
+        band = np.repeat(a[None], N, axis=0).T     # Fortran order; row k: the k-th subdiagonal, a_k
         y = scipy.linalg.lapack.dtbtrs(band, v.T, uplo="L", diag="U", overwrite_b=1)[0].T
     else:
         y = v
-    filtered = np.moveaxis(y.reshape(shape), -1, axis)
+    filtered = y.reshape(shape) if last else np.moveaxis(y.reshape(shape), -1, axis)
     if zi is None:
         return filtered
-    return filtered, np.moveaxis(_final_state(b, a, signals, y, state).reshape(*shape[:-1], d), -1, axis)
+    zf = _final_state(b, a, signals, y, state).reshape(*shape[:-1], d)
+    return filtered, zf if last else np.moveaxis(zf, -1, axis)
+
+
+def _coefficients(b: np.ndarray | list[float], a: np.ndarray | list[float]) -> tuple[np.ndarray, np.ndarray]:
+    """``b`` and ``a`` scaled to ``a[0] = 1`` and padded with zeros to one length."""
+    b, a = np.asarray(b, dtype=float), np.asarray(a, dtype=float)
+    if a[0] != 1.0:
+        b, a = b / a[0], a / a[0]
+    if a.size == b.size:
+        return b, a
+    both = np.zeros((2, max(a.size, b.size)))
+    both[0, : b.size], both[1, : a.size] = b, a
+    return both[0], both[1]
 
 
 def _final_state(b: np.ndarray, a: np.ndarray, x: np.ndarray, y: np.ndarray, zi: np.ndarray) -> np.ndarray:
