@@ -111,13 +111,14 @@ def _significant(A: np.ndarray, C: np.ndarray, K: np.ndarray, e: np.ndarray) -> 
     when the error is white; a gain that lowers it by less than the 95 % point is noise
     fitted to noise, and on fresh data it makes the one-step errors coloured.
     """
-    import scipy.stats
+    import scipy.special  # only when a gain is tested
 
     N, p = e.shape
     free = free_response(A, C, N)
     white = e - free @ fit_free_response(free, e)
     statistic = N * (_log_det_cov(white) - _log_det_cov(_innovations(A, C, K, e)))
-    return bool(statistic > scipy.stats.chi2.ppf(0.95, K.size))
+    # the chi-squared 95 % point (scipy.stats.chi2.ppf's formula; scipy.stats is slow to import)
+    return bool(statistic > 2.0 * scipy.special.gammaincinv(K.size / 2, 0.95))
 
 
 def _prediction_error_steps(A: np.ndarray, C: np.ndarray, K: np.ndarray, e: np.ndarray) -> tuple[np.ndarray, int]:

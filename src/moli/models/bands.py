@@ -96,9 +96,10 @@ def _interval(values: np.ndarray, confidence: float) -> tuple[np.ndarray, np.nda
 
 
 def _normal_quantile(confidence: float) -> float:
-    from scipy.stats import norm  # slow to import: only when a band is drawn
+    import scipy.special  # only when a band is drawn
 
-    return float(norm.ppf(0.5 + confidence / 2))
+    # the normal quantile (scipy.stats.norm.ppf is this function; scipy.stats is slow to import)
+    return float(scipy.special.ndtri(0.5 + confidence / 2))
 
 
 def magnitude_bands(
