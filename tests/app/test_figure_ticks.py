@@ -32,8 +32,7 @@ def _in_view(axis, locs: np.ndarray) -> np.ndarray:
 
 @pytest.mark.parametrize("draw", [
     lambda model: figures.bode_magnitude(model, points=40),  # shared log axes, minor ticks
-    lambda model: figures.step_responses(model, 40),      # shared linear axes
-    lambda model: figures.poles(model),                   # fixed limits, equal aspect
+    lambda model: figures.singular_values(model, points=40),  # one log-log axes, a legend
 ])
 def test_trimmed_ticks_draw_the_same_pixels(draw):
     model = _model()

@@ -1,11 +1,11 @@
 """Ticks made only where they show: the same figure from fewer matplotlib tick objects.
 
-matplotlib's locators return ticks beyond the view (a log locator a decade or more on
-each side, its minor one eight per decade), and an axis builds a tick (two marks, a grid
-line, two labels) for every one of them, then updates each of them for every layout pass
-and draw: on the report's grids of log axes those unseen ticks are a third of all. A
-locator trimmed to the view gives the same ticks on the canvas (the axis draws only those
-in its view) at the cost of the ones drawn.
+matplotlib's log locators return ticks a decade or more beyond the view on each side (the
+minor one eight per decade), and an axis builds a tick (two marks, a grid line, two
+labels) for every one of them, then updates each of them for every layout pass and draw:
+on the report's grids of log axes those unseen ticks are a third of all. A locator trimmed
+to the view gives the same ticks on the canvas (the axis draws only those in its view) at
+the cost of the ones drawn.
 """
 
 from __future__ import annotations
@@ -53,10 +53,13 @@ class InViewLocator(Locator):
 
 
 def trim_ticks(fig: Figure) -> None:
-    """Give every axis of ``fig`` locators trimmed to its view; call after the plotting
-    (setting a scale replaces an axis's locators)."""
+    """Give every log axis of ``fig`` locators trimmed to its view; call after the plotting
+    (setting a scale replaces an axis's locators). A linear axis's locator reaches one tick
+    beyond each end at most: trimming it costs what it saves."""
     for ax in fig.axes:
         for axis in (ax.xaxis, ax.yaxis):
+            if axis.get_scale() != "log":
+                continue
             for ticker in (axis.major, axis.minor):   # shared axes share their tickers
                 if not isinstance(ticker.locator, InViewLocator):
                     trimmed = InViewLocator(ticker.locator)

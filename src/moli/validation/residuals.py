@@ -106,7 +106,8 @@ class ResidualAnalysis:
         p, m = len(self.output_names), len(self.input_names)
         fig = Figure(figsize=(2.6 * (m + 1) + 0.4, 1.9 * p + 0.6), layout="constrained")
         FigureCanvasAgg(fig)
-        axes = fig.subplots(p, m + 1, squeeze=False)
+        # one lag range per column: its tick labels once, under the bottom row
+        axes = fig.subplots(p, m + 1, sharex="col", squeeze=False)
         kind = "simulation errors" if self.horizon is None else f"{self.horizon}-step prediction errors"
         fig.suptitle(f"residual analysis ({kind}), {self.confidence:.0%} bands", fontsize=10)
         own = np.arange(self.lags + 1)
