@@ -14,8 +14,8 @@ process; the tables give the median and the range of ``--runs`` runs.
 2. ``moli.identify(moli.example_data(N=1000))`` twice in one fresh process: the import
    (``import moli; moli.identify``), the first call and the second, identical one, in
    CPU seconds, and the first over the second. A second row imports ``scipy.signal``
-   before the first call: the part of the first call's extra cost that is that one-off
-   import (the filters' ``lfilter``; moli imports it when it first filters).
+   (which brings ``scipy.stats``) before the first call: what that one-off import cost a
+   first call when moli filtered with ``lfilter``; moli no longer imports either.
 """
 
 from __future__ import annotations
