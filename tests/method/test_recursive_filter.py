@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 from scipy.signal import lfilter
 
 import moli
-from moli.method.recursive_filter import recursive_filter
+from moli.numerics.recursive_filter import recursive_filter
 
 SETTINGS = settings(deadline=None, derandomize=True, max_examples=80,
                     suppress_health_check=[HealthCheck.too_slow])

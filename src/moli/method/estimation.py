@@ -20,8 +20,8 @@ from ..data.iodata import IOData
 from ..errors import DataError, IllConditionedWarning, OptionError
 from .covariance import matrix_covariance
 from .filters import check_alpha, divisors
+from ..numerics.recursive_filter import recursive_filter
 from ..numerics.triangular import fold, tall_factor
-from .recursive_filter import recursive_filter
 from .row_blocks import WHOLE_ROWS, lagged_blocks
 from ..models.statespace import StateSpaceModel
 from .rows import check_regression_rows, check_sample_count, regression_rows, row_breaks, row_count

@@ -37,8 +37,8 @@ import numpy as np
 
 from ..data.iodata import IOData
 from ..errors import DataError, WeakReferenceWarning
+from ..numerics.recursive_filter import recursive_filter
 from ..numerics.triangular import streamed_factor
-from .recursive_filter import recursive_filter
 from .row_blocks import BLOCK_ROWS
 
 __all__ = ["FirstStage", "ReferenceProjection", "fit_projection", "two_stage_records", "without_reference"]

@@ -20,8 +20,8 @@ from ..errors import OptionError
 from .estimation import solve_batch
 from .regularization import REGULARIZATIONS, ridge_gcv
 from .filters import _needs_real, filter_rows
+from ..numerics.recursive_filter import recursive_filter
 from ..numerics.triangular import QR_BLOCK, TALL_BLOCK_ROWS, TALL_QR_BLOCK, WHOLE_TALL_ROWS, streamed_factor
-from .recursive_filter import recursive_filter
 from .row_blocks import WHOLE_ROWS, lagged_blocks
 from .structure import Indices
 

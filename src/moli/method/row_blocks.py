@@ -19,7 +19,7 @@ from typing import Iterator, Sequence
 
 import numpy as np
 
-from .recursive_filter import recursive_filter
+from ..numerics.recursive_filter import recursive_filter
 
 __all__ = ["BLOCK_ROWS", "WHOLE_ROWS", "lagged_blocks"]
 

@@ -14,7 +14,7 @@ import functools
 
 import numpy as np
 
-from ..method.recursive_filter import recursive_filter
+from ..numerics.recursive_filter import recursive_filter
 
 __all__ = ["CausalRegressors"]
 
