@@ -73,6 +73,8 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "improved_refine": {"preset": "improved", "refine": "selected"},
     "paper": {"preset": "paper"},
     "bounded": {"preset": "bounded"},
+    "default_tol01": {"order_tolerance": 0.1},
+    "default_tol025": {"order_tolerance": 0.25},
     "default_tol1": {"order_tolerance": 1.0},
     "default_paired": {"order_rule": "paired"},
     "default_paper_grid": {"filter_grid": "paper"},
