@@ -65,6 +65,7 @@ import moli  # noqa: E402
 # choices of one of them, to show what each choice is worth.
 VARIANTS: dict[str, dict[str, Any]] = {
     "default": {},
+    "fast": {"preset": "fast"},
     "improved": {"preset": "improved"},
     "improved_tol05": {"preset": "improved", "order_tolerance": 0.5},
     "improved_tol0": {"preset": "improved", "order_tolerance": 0.0},
@@ -97,6 +98,17 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "default_refined_order": {"order_rule": "refined"},
     "default_refined_order_half": {"order_rule": "refined", "order_errors": 0.5},
     "default_direct": {"closed_loop": "direct"},
+    # Cheaper searches, the candidates for the fast preset (docs/accuracy.md).
+    "default_damped": {"filter_grid": "damped"},
+    "default_refine5": {"refine_iterations": 5},
+    "default_refine3": {"refine_iterations": 3},
+    "default_ridge1_refine5": {"refine_ridge": 1.0, "refine_iterations": 5},
+    "default_wide3_ridge1": {"filter_grid": "wide3", "refine_ridge": 1.0},
+    "default_wide3_refine5": {"filter_grid": "wide3", "refine_iterations": 5},
+    "default_damped_ridge1": {"filter_grid": "damped", "refine_ridge": 1.0},
+    "default_paper_ridge1": {"filter_grid": "paper", "refine_ridge": 1.0},
+    "default_paper_refine5": {"filter_grid": "paper", "refine_iterations": 5},
+    "default_paper_selected": {"filter_grid": "paper", "refine": "selected"},
 }
 LENGTHS = (("N_E < 1000", 0, 999), ("N_E 1000-5000", 1000, 5000), ("N_E > 5000", 5001, 10 ** 9))
 QUICK = {"daisy": ("ballbeam", "destill", "dryer2"), "windows": 2, "synthetic": 4}

@@ -110,8 +110,23 @@ def test_fit_preset_gives_the_api_model(tmp_path, csv_file, record):
     np.testing.assert_array_equal(saved.A, expected.A)
     assert moli.IdentifyOptions.from_dict(saved.info["options"]) == moli.IdentifyOptions.paper(nmax=NMAX)
     # an unknown choice is a usage error, reported by click with the valid choices
-    wrong = run("fit", str(csv_file), "--preset", "fast")
-    assert wrong.exit_code == 2 and "'fast' is not one of 'default', 'improved', 'bounded', 'paper'" in wrong.stderr
+    wrong = run("fit", str(csv_file), "--preset", "quick")
+    assert wrong.exit_code == 2 and ("'quick' is not one of 'default', 'fast', 'improved', 'bounded', 'paper'"
+                                     in wrong.stderr)
+
+
+def test_fit_fast_preset_saves_its_options_and_the_api_model(tmp_path, csv_file, record):
+    model_path = tmp_path / "fast.json"
+    fitted = run("fit", str(csv_file), "--inputs", INPUTS, "--outputs", OUTPUTS, "--nmax", str(NMAX),
+                 "--preset", "fast", "--out", str(model_path))
+    assert fitted.exit_code == 0, fitted.output + fitted.stderr
+    saved = moli.load_model(model_path)
+    assert moli.IdentifyOptions.from_dict(saved.info["options"]) == moli.IdentifyOptions.fast(nmax=NMAX)
+    est, val = record.split(0.7)
+    expected = moli.identify(est, val, nmax=NMAX, preset="fast").model
+    # the same search on the same samples: the same arithmetic, so equal to round-off
+    np.testing.assert_allclose(saved.A, expected.A, rtol=1e-12, atol=1e-12)
+    assert saved.K is not None          # the fast search keeps the noise model
 
 
 def test_ctrl_c_keeps_the_best_model_so_far(tmp_path, csv_file, monkeypatch):

@@ -97,11 +97,24 @@ def test_presets_show_what_they_set():
     assert changed == {"order_tolerance", "filter_grid", "refine", "refine_ridge"}
     assert IdentifyOptions.preset("bounded", nmax=4) == IdentifyOptions.bounded().replace(nmax=4)
     with pytest.raises(OptionError, match="preset must be one of"):
-        IdentifyOptions.preset("fast")
+        IdentifyOptions.preset("quick")
+
+
+def test_the_fast_preset_is_the_default_with_a_shorter_refinement():
+    fast = IdentifyOptions.preset("fast")
+    assert fast == IdentifyOptions.fast() == IdentifyOptions(refine_iterations=5)
+    # one choice differs from the default; the refinement stays guarded and the result
+    # keeps its noise model (and so its bands and predictions)
+    changed = {k for k, v in fast.to_dict().items() if IdentifyOptions().to_dict()[k] != v}
+    assert changed == {"refine_iterations"}
+    assert (fast.refine, fast.noise_model, fast.filter_grid) == ("guarded", True, "wide")
+    # a change given beside the preset wins over the preset's own value
+    assert IdentifyOptions.fast(refine_iterations=7, nmax=6).refine_iterations == 7
 
 
 @pytest.mark.parametrize("opts", [
     IdentifyOptions(), IdentifyOptions.paper(nmax=9, seed=3), IdentifyOptions.bounded(),
+    IdentifyOptions.fast(), IdentifyOptions.fast(nmax=7),
     IdentifyOptions(omega=[(0.1, 0.7), (0.2, 1.1)], refine="path", max_radius=0.99),
     IdentifyOptions(search_samples=None), IdentifyOptions(search_samples=4096),
 ])

@@ -2,6 +2,7 @@
 joint tuning of several lists, presets."""
 
 from unittest import mock
+import warnings
 
 import numpy as np
 import pytest
@@ -152,6 +153,27 @@ def test_estimated_initial_state_never_scores_worse():
     assert fitted.min() < zero.min()
 
 
+def test_the_fast_preset_finds_the_exact_plant_on_noise_free_records():
+    seed = 4
+    plant = moli.StateSpaceModel(*_random_system(3, 2, 2, seed=seed, radius=0.8))
+    rng = np.random.default_rng(seed)
+    # two experiments from rest and no centring: every order from the true one up fits
+    # the validation record exactly from the zero state, every lower one cannot
+    records = []
+    for N in (300, 200):
+        u = rng.standard_normal((N, 2))
+        records.append(moli.IOData(plant.simulate(u), u))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")       # noise-free data: ill-conditioned candidates expected
+        result = moli.identify(*records, nmax=5, center=False, preset="fast")
+    assert result.options == moli.IdentifyOptions.fast(nmax=5, center=False)
+    assert result.selected.order == 3
+    # exact equations: round-off only (below 1e-12 seen), the regression's condition aside
+    np.testing.assert_allclose(result.model.markov(12), plant.markov(12), atol=1e-8)
+    # the noise model is kept: the result still predicts and carries its bands
+    assert result.model.K is not None and result.model.noise_cov is not None
+
+
 def test_zoom_never_ends_worse_than_the_grid():
     z = _data(*_random_system(4, 2, 2, seed=8), noise=0.2)
     scorer = FilterScorer(z, (2, 2), 1.0, 2.0, RegressionCache(z, 2))
@@ -176,7 +198,7 @@ def test_presets_and_their_errors():
     assert all(np.max(np.abs(st.model.poles())) < bounded.max_radius for st in bounded.path
                if st.J < 1.0)
     with pytest.raises(OptionError, match="preset"):
-        moli.identify(est, val, nmax=4, preset="fast")
+        moli.identify(est, val, nmax=4, preset="quick")
     with pytest.raises(OptionError, match="refine"):
         moli.identify(est, val, nmax=4, refine="all")
     with pytest.raises(OptionError, match="max_radius"):

@@ -76,7 +76,7 @@ def identify(
     **overrides
         Fields of :class:`IdentifyOptions` changed for this call:
         ``identify(est, val, nmax=12)`` is ``identify(est, val, IdentifyOptions(nmax=12))``.
-        ``preset="paper"`` (or "bounded", "improved", "default") starts from that preset instead
+        ``preset="paper"`` (or "bounded", "improved", "fast", "default") starts from that preset instead
         of the default; it cannot be combined with ``options``.
 
     Returns
