@@ -102,6 +102,8 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "default_damped": {"filter_grid": "damped"},
     "default_refine5": {"refine_iterations": 5},
     "default_refine3": {"refine_iterations": 3},
+    "default_refine2": {"refine_iterations": 2},
+    "default_refine1": {"refine_iterations": 1},
     "default_ridge1_refine5": {"refine_ridge": 1.0, "refine_iterations": 5},
     "default_wide3_ridge1": {"filter_grid": "wide3", "refine_ridge": 1.0},
     "default_wide3_refine5": {"filter_grid": "wide3", "refine_iterations": 5},
