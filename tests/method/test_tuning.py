@@ -154,9 +154,8 @@ def test_estimated_initial_state_never_scores_worse():
 
 
 def test_the_fast_preset_finds_the_exact_plant_on_noise_free_records():
-    seed = 4
-    plant = moli.StateSpaceModel(*_random_system(3, 2, 2, seed=seed, radius=0.8))
-    rng = np.random.default_rng(seed)
+    plant = moli.StateSpaceModel(*_random_system(3, 2, 2, seed=4, radius=0.8))
+    rng = np.random.default_rng(4)
     # two experiments from rest and no centring: every order from the true one up fits
     # the validation record exactly from the zero state, every lower one cannot
     records = []
@@ -168,7 +167,7 @@ def test_the_fast_preset_finds_the_exact_plant_on_noise_free_records():
         result = moli.identify(*records, nmax=5, center=False, preset="fast")
     assert result.options == moli.IdentifyOptions.fast(nmax=5, center=False)
     assert result.selected.order == 3
-    # exact equations: round-off only (below 1e-12 seen), the regression's condition aside
+    # exact equations: round-off times the regressions' condition only (below 1e-12 seen)
     np.testing.assert_allclose(result.model.markov(12), plant.markov(12), atol=1e-8)
     # the noise model is kept: the result still predicts and carries its bands
     assert result.model.K is not None and result.model.noise_cov is not None

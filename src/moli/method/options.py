@@ -49,11 +49,10 @@ class IdentifyOptions:
 
     Build one with keywords (every field is checked here, before any work), take a
     named preset (:meth:`default`, :meth:`fast`, :meth:`improved`, :meth:`bounded`,
-    :meth:`paper`), or
-    change a few fields of one with :meth:`replace`. The defaults were chosen on the
-    generalization benchmark (docs/accuracy.md): the lowest order within 0.1 point of the
-    best validation fit, the wide filter grid, and output-error refinement kept where it
-    raises the validation fit.
+    :meth:`paper`), or change a few fields of one with :meth:`replace`. The defaults were
+    chosen on the generalization benchmark (docs/accuracy.md): the lowest order within 0.1
+    point of the best validation fit, the wide filter grid, and output-error refinement kept
+    where it raises the validation fit.
 
     Parameters
     ----------
