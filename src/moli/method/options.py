@@ -280,13 +280,13 @@ class IdentifyOptions:
 
         Each refinement of the guarded refinement stops after two Levenberg-Marquardt steps
         instead of ten; every other choice is the default's, the noise model and its bands
-        included. On the evaporator's paper split it takes about 0.7 of the default's time
+        included. On the evaporator's paper split it takes about 0.8 of the default's time
         (docs/performance.md). It was chosen as the cheapest candidate whose mean validation
         VAF stays within 0.3 points of the default's, paired over the 119 cases of the
-        generalization benchmark's seed-0 run, and checked on seeds 1 and 2
-        (docs/accuracy.md, "The fast preset"). Smaller filter grids were cheaper but lost
-        a DaISy record by tens of points; refining with the ridge of 1 alone was cheaper
-        but left the gain bands too narrow.
+        generalization benchmark's seed-0 run (0.16 points lower), and checked on seeds 1
+        and 2 (0.30 and 0.12 points lower; docs/accuracy.md, "The fast preset"). Smaller
+        filter grids were cheaper but lost a DaISy record by tens of points; refining with
+        the ridge of 1 alone cost as much and left the gain bands too narrow.
 
         Parameters
         ----------
