@@ -283,8 +283,9 @@ class IdentifyOptions:
         included. On the evaporator's paper split it takes about 0.8 of the default's time
         (docs/performance.md). It was chosen as the cheapest candidate whose mean validation
         VAF stays within 0.3 points of the default's, paired over the 119 cases of the
-        generalization benchmark's seed-0 run (0.16 points lower), and checked on seeds 1
-        and 2 (0.30 and 0.12 points lower; docs/accuracy.md, "The fast preset"). Smaller
+        generalization benchmark's seed-0 run (0.15 points lower), and checked on seeds 1
+        and 2 (0.36 and 0.12 points lower: seed 1 is past the limit; docs/accuracy.md, "The
+        fast preset"). Smaller
         filter grids were cheaper but lost a DaISy record by tens of points; refining with
         the ridge of 1 alone cost as much and left the gain bands too narrow.
 
