@@ -14,7 +14,8 @@ signs of ``F``'s columns).
     MOLI_DATA_DIR=/path/to/daisy OPENBLAS_NUM_THREADS=1 python benchmarks/same_models.py compare before.npz
 
 ``--synthetic K`` sets the number of synthetic systems (80 by default), ``--seed`` their
-seed, ``--presets default,improved`` the option sets.
+seed, ``--presets default,improved`` the option sets, ``--set NAME=JSON`` an option changed
+in each of them (to compare code across a change of a default, say).
 """
 
 from __future__ import annotations
@@ -22,6 +23,8 @@ from __future__ import annotations
 import single_thread  # noqa: F401  (before numpy: one BLAS thread)
 
 import argparse  # noqa: E402
+import json  # noqa: E402
+from typing import Any  # noqa: E402
 import warnings  # noqa: E402
 
 import numpy as np  # noqa: E402
@@ -56,12 +59,12 @@ def arrays(result: moli.IdentifyResult) -> dict[str, np.ndarray]:
     return out
 
 
-def snapshot(synthetic: int, seed: int, presets: list[str]) -> dict[str, np.ndarray]:
+def snapshot(synthetic: int, seed: int, presets: list[str], changes: dict[str, Any]) -> dict[str, np.ndarray]:
     cases = (gc.daisy_cases() + gc.evaporator_cases()
              + [gc.synthetic_case(seed, i) for i in range(synthetic)])
     found: dict[str, np.ndarray] = {}
     for preset in presets:
-        options = PRESETS[preset]()
+        options = PRESETS[preset](**changes)
         for case in cases:
             half, (p, m) = case.val.N // 2, (case.est.p, case.est.m)
             nmax = gc.nmax_rule(p, m, case.est.N)
@@ -131,8 +134,14 @@ def main() -> None:
     parser.add_argument("--synthetic", type=int, default=80)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--presets", default="default")
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=JSON",
+                        help="an option changed in every preset, e.g. order_tolerance=0 (repeatable)")
     args = parser.parse_args()
-    found = snapshot(args.synthetic, args.seed, args.presets.split(","))
+    changes = {}
+    for item in args.set:
+        name, _, value = item.partition("=")
+        changes[name] = json.loads(value)
+    found = snapshot(args.synthetic, args.seed, args.presets.split(","), changes)
     if args.action == "save":
         np.savez_compressed(args.file, **found)
         print(f"{len(found)} arrays saved to {args.file}")
