@@ -102,7 +102,7 @@ def test_presets_show_what_they_set():
 
 def test_the_fast_preset_is_the_default_with_a_shorter_refinement():
     fast = IdentifyOptions.preset("fast")
-    assert fast == IdentifyOptions.fast() == IdentifyOptions(refine_iterations=2)
+    assert fast == IdentifyOptions.fast() == IdentifyOptions(refine_iterations=5)
     # one choice differs from the default; the refinement stays guarded and the result
     # keeps its noise model (and so its bands and predictions)
     changed = {k for k, v in fast.to_dict().items() if IdentifyOptions().to_dict()[k] != v}
