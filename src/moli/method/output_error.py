@@ -121,7 +121,9 @@ class OutputErrorProblem:
         at_g = n * p + n * m
         at_f = at_g + len(pairs)
         count = at_f + (p * self.through if self.feedthrough else 0) + (self.x0_size if self.fit_x0 else 0)
-        augmented = np.empty((N, p, count + 1))
+        # stored column by column (a view indexed sample, output, column): each column is
+        # written in one piece, and LAPACK factors the matrix without reordering it
+        augmented = np.empty((count + 1, N, p)).transpose(1, 2, 0)
         if self.fit_x0:
             augmented[:, :, count - self.x0_size : count] = 0.0   # a segment's x0 moves that segment alone
         # the sensitivities restart with the state at each segment (its x0 is a parameter of its own)
