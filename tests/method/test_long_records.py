@@ -75,7 +75,8 @@ def test_cache_folds_a_long_window_in_blocks_to_the_same_problems(monkeypatch):
     z = np.concatenate([data.y, data.u], axis=1)
     whole = _cache_solutions(z, None)
     monkeypatch.setattr(regression, "WHOLE_TALL_ROWS", 1000)
-    monkeypatch.setattr(regression, "TALL_BLOCK_ROWS", 700)
+    monkeypatch.setattr(triangular, "WHOLE_TALL_ROWS", 1000)
+    monkeypatch.setattr(triangular, "TALL_BLOCK_ROWS", 700)
     folded = _cache_solutions(z, None)
     # same least-squares problems, factored in another order: round-off apart
     for a, b in zip(whole, folded):

@@ -28,7 +28,7 @@ from ..models.statespace import StateSpaceModel
 from ..validation.prediction import deviations, predicted_deviations
 from ..validation.whitening import fit_ar
 from ..numerics.triangular import column_norms, tall_factor
-from ..validation.prediction import fit_free_response
+from ..validation.prediction import NEGLIGIBLE_FREE_RESPONSE, fit_free_response
 
 __all__ = ["estimate_noise_model"]
 
@@ -113,9 +113,10 @@ def _significant(A: np.ndarray, C: np.ndarray, K: np.ndarray, e: np.ndarray) -> 
     """
     import scipy.special  # only when a gain is tested
 
-    N, p = e.shape
-    free = free_response(A, C, N)
-    white = e - free @ fit_free_response(free, e)
+    N = e.shape[0]
+    free = free_response(A, C, N, NEGLIGIBLE_FREE_RESPONSE)     # cut where it has decayed
+    white = e.copy()
+    white[: free.shape[0]] -= free @ fit_free_response(free, e[: free.shape[0]])
     statistic = N * (_log_det_cov(white) - _log_det_cov(_innovations(A, C, K, e)))
     # the chi-squared 95 % point (scipy.stats.chi2.ppf's formula; scipy.stats is slow to import)
     return bool(statistic > 2.0 * scipy.special.gammaincinv(K.size / 2, 0.95))

@@ -9,8 +9,6 @@ states at once.
 
 from __future__ import annotations
 
-from typing import Iterator
-
 import numpy as np
 import scipy.linalg
 
@@ -18,15 +16,6 @@ from ..models.simulation import free_response, simulate_batch, state_responses
 from .observer_form import ObserverForm
 
 __all__ = ["OutputErrorProblem"]
-
-
-def _sensitivities(
-    A: np.ndarray, C: np.ndarray, signals: np.ndarray
-) -> tuple[np.ndarray, Iterator[tuple[int, np.ndarray]]]:
-    """The free responses ``C A^t e_a``, (N, p, n), and the responses ``C (qI - A)^-1 e_a v``
-    to each signal ``v`` through each state ``a``, one signal at a time
-    (:func:`moli.models.simulation.state_responses`)."""
-    return free_response(A, C, signals.shape[0]), state_responses(A, C, signals)
 
 
 class OutputErrorProblem:
@@ -128,9 +117,8 @@ class OutputErrorProblem:
             augmented[:, :, count - self.x0_size : count] = 0.0   # a segment's x0 moves that segment alone
         # the sensitivities restart with the state at each segment (its x0 is a parameter of its own)
         for segment, (a, b) in enumerate(self.bounds):
-            free, responses = _sensitivities(A, C, signals[a:b])
             rows = augmented[a:b]
-            for c, S_c in responses:
+            for c, S_c in state_responses(A, C, signals[a:b]):
                 if c < m:                               # B[a, c]: input u_c into state a
                     rows[:, :, n * p + c : at_g : m] = S_c
                     continue
@@ -142,7 +130,7 @@ class OutputErrorProblem:
                         rows[:, :, at_g + q] = direct + np.einsum("tpa,a->tp", S_c, form.D @ H[:, i])
             if self.fit_x0:
                 at_x0 = count - self.x0_size + segment * n
-                rows[:, :, at_x0 : at_x0 + n] = free
+                rows[:, :, at_x0 : at_x0 + n] = free_response(A, C, b - a)
         if self.feedthrough:                       # F[i, j]: u_j straight to y_i
             eye, through = np.eye(p), self.u[:, : self.through]
             for i in range(p):                     # one output at a time: N p m values, not N p p m

@@ -94,7 +94,8 @@ def refined_covariance(model: StateSpaceModel, data: IOData,
     norms = np.linalg.norm(jac, axis=0)
     norms[norms == 0] = 1.0
     # the singular values and right vectors of the record-long matrix are its triangular factor's
-    rows = [tall_factor(jac / norms)]
+    scaled = jac / norms
+    rows = [tall_factor(scaled)]
     ridge = float(model.info.get("refine_ridge", 0.0))
     if ridge > 0:
         # the ridge's penalty in the column-scaled parameters: sqrt(ridge) per model
@@ -110,9 +111,9 @@ def refined_covariance(model: StateSpaceModel, data: IOData,
     if not values[0] > 0:
         raise DataError("the refined model's simulation error does not depend on its parameters on this record")
     kept = values > values[0] * NULL_DIRECTION
-    scores = np.einsum("tpk,tp->tk", (jac / norms).reshape(N, p, k), residual.reshape(N, p))
+    scores = np.einsum("tpk,tp->tk", scaled.reshape(N, p, k), residual.reshape(N, p))
     if first_stage is not None:
-        scores -= _first_stage_scores(model, data, first_stage, jac / norms, problem.weights)
+        scores -= _first_stage_scores(model, data, first_stage, scaled, problem.weights)
     long_run, width = long_run_covariance(scores, data.segment_starts[1:])
     # root (R^T R)^+ with R^T R = V diag(values^2) V^T; a square root of S from its eigenvalues
     eig, vectors = np.linalg.eigh(long_run)

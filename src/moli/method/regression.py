@@ -21,7 +21,7 @@ from .estimation import solve_batch
 from .regularization import REGULARIZATIONS, ridge_gcv
 from .filters import _needs_real, filter_rows
 from ..numerics.recursive_filter import recursive_filter
-from ..numerics.triangular import QR_BLOCK, TALL_BLOCK_ROWS, TALL_QR_BLOCK, WHOLE_TALL_ROWS, streamed_factor
+from ..numerics.triangular import QR_BLOCK, WHOLE_TALL_ROWS, streamed_factor, tall_factor
 from .row_blocks import WHOLE_ROWS, lagged_blocks
 from .structure import Indices
 
@@ -280,8 +280,7 @@ def _record_factors(z: np.ndarray, alphas: Sequence[np.ndarray], extra: int) -> 
     factors = []
     for matrix in columns:
         if rows > WHOLE_TALL_ROWS:   # a long window: folded in blocks that stay in cache
-            factors.append(streamed_factor((matrix[:, i : i + TALL_BLOCK_ROWS] for i in range(0, rows, TALL_BLOCK_ROWS)),
-                                           TALL_QR_BLOCK))
+            factors.append(tall_factor(matrix.T))
             continue
         factored = scipy.linalg.lapack.dgeqrt(block, matrix.T, overwrite_a=True)[0]
         factor = np.array(factored[: min(rows, cols)], order="C")

@@ -150,14 +150,14 @@ def state_responses(A: np.ndarray, C: np.ndarray, signals: np.ndarray) -> Iterat
     """Responses ``C (qI - A)^-1 e_a v_c`` of each signal ``v_c`` injected into each state ``a``.
 
     One signal at a time: yields ``(c, S_c)`` with ``S_c[t, :, a]`` the response to
-    signal ``c`` through state ``a``, shape (N, p, n), each array valid until the next
-    (all ``k`` signals at once would hold ``N p n k`` values, many times the record's).
-    ``S_c[0]`` is zero: ``(qI - A)^-1`` delays by one sample.
+    signal ``c`` through state ``a``, shape (N, p, n), computed when asked for (all ``k``
+    signals at once would hold ``N p n k`` values, many times the record's). ``S_c[0]`` is
+    zero: ``(qI - A)^-1`` delays by one sample.
 
     In blocks of ``L`` samples, as :func:`simulate_batch`: the state matrix ``X`` (n, n)
-    of ``X_{t+1} = A X_t + v_c(t) I`` at the block starts comes from a recursion over the
-    blocks of all signals at once, and each block's responses are a Toeplitz product of
-    its samples by ``C A^k`` plus ``C A^i X_b``.
+    of ``X_{t+1} = A X_t + v_c(t) I`` at the block starts comes from the block recursion
+    of its columns, those of every signal at once, and each block's responses are a
+    Toeplitz product of its samples by ``C A^k`` plus ``C A^i X_b``.
 
     Parameters
     ----------
@@ -176,14 +176,12 @@ def state_responses(A: np.ndarray, C: np.ndarray, signals: np.ndarray) -> Iterat
         powers = _powers(A[None], L)[:, 0]                                       # (L + 1, n, n)
         markov = C @ powers[:L]                                                  # (L, p, n): C A^i
         toeplitz = _block_toeplitz(markov.reshape(L, 1, p * n, 1))[0]            # (L, L p n)
-        # X_{b+1} = A^L X_b + sum_j v(bL + j) A^(L-1-j), every signal's blocks at once
+        # X_{b+1} = A^L X_b + sum_j v(bL + j) A^(L-1-j): each column of X, of each signal,
+        # is a state of its own under A^L (k n of them, driven by the columns of the sums)
         drives = (blocks @ powers[L - 1 :: -1].reshape(L, n * n)).reshape(k, nb, n, n)
-        states = np.zeros((nb, k, n, n))
-        step = powers[L]
-        for b in range(nb - 1):
-            np.matmul(step, states[b], out=states[b + 1])
-            states[b + 1] += drives[:, b]
-        states = np.ascontiguousarray(states.transpose(1, 0, 2, 3))            # (k, nb, n, n)
+        columns = np.ascontiguousarray(drives.transpose(0, 3, 1, 2)).reshape(k * n, nb, n)
+        states = _block_states(np.broadcast_to(powers[L], (k * n, n, n)), columns, None, k * n, n)
+        states = states.reshape(k, n, nb, n).transpose(0, 2, 3, 1)            # (k, nb, n, n): X_b
         observability = markov.reshape(L * p, n)
 
         def responses() -> Iterator[tuple[int, np.ndarray]]:

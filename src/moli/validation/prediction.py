@@ -164,7 +164,7 @@ def fit_free_response(basis: np.ndarray, target: np.ndarray) -> np.ndarray:
     slower). The problem is reduced to its triangular factor, and lstsq's rank cut-off
     applies to the same singular values.
     """
-    N, p, n = basis.shape
+    n = basis.shape[2]
     size = np.max(np.abs(basis), axis=(1, 2))
     above = np.flatnonzero(size > NEGLIGIBLE_FREE_RESPONSE * np.max(size, initial=0.0))
     rows = int(above[-1]) + 1 if above.size else 0
