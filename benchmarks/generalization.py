@@ -97,11 +97,6 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "default_refine20": {"refine_iterations": 20},
     "default_refined_order": {"order_rule": "refined"},
     "default_refined_order_half": {"order_rule": "refined", "order_errors": 0.5},
-    "refined_cap025": {"order_rule": "refined", "order_cap": 0.25},
-    "refined_cap05": {"order_rule": "refined", "order_cap": 0.5},
-    "refined_cap1": {"order_rule": "refined", "order_cap": 1.0},
-    "refined_tol01": {"order_rule": "refined", "order_errors": 1e9, "order_cap": 0.1},
-    "refined_tol025": {"order_rule": "refined", "order_errors": 1e9, "order_cap": 0.25},
     "default_direct": {"closed_loop": "direct"},
     # Cheaper searches, the candidates for the fast preset (docs/accuracy.md).
     "default_damped": {"filter_grid": "damped"},

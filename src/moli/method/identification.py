@@ -249,8 +249,7 @@ def identify(
         if selected is None and opts.order_rule == "refined" and not interrupted:
             stage = begin("order rule's refinements")
             selected, chosen = select_order_refined(path, lambda i: [path[i], *siblings(search, path, i)],
-                                                    refined, scored, opts.x0, opts.order_errors,
-                                                    np.inf if opts.order_cap is None else opts.order_cap)
+                                                    refined, scored, opts.x0, opts.order_errors)
             path[selected] = unrefined[selected] = chosen
     except KeyboardInterrupt:   # the path as it was, and the order rule of an interrupted search
         skipped, selected = tuple(phases[phases.index(stage):]), _fixed_order(path, opts.order, True)

@@ -183,7 +183,6 @@ class IdentifyOptions:
     order: int | None = None
     order_tolerance: float = 0.1
     order_errors: float = 1.0
-    order_cap: float | None = None
     omega: tuple[tuple[float, float], ...] | None = None
     filter_grid: str = "wide"
     tuning: str = "grid"
@@ -224,8 +223,6 @@ class IdentifyOptions:
             "order": None if self.order is None else check_integer("order", self.order, 1),
             "order_errors": check_number("order_errors", self.order_errors,
                                     "a number >= 0 (paired standard errors)", lambda z: z >= 0),
-            "order_cap": None if self.order_cap is None else check_number(
-                "order_cap", self.order_cap, "None or a number >= 0 (points of VAF)", lambda t: t >= 0),
             "order_tolerance": check_number("order_tolerance", self.order_tolerance,
                                        "a number >= 0 (points of VAF)", lambda t: t >= 0),
             "omega": check_omega_pairs(self.omega),

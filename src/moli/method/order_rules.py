@@ -103,7 +103,7 @@ def select_by_shares(path: list, shares: Callable[[int], np.ndarray], z: float =
 def select_order_refined(
     path: list[PathStep], lists_at: Callable[[int], list[PathStep]],
     refine: Callable[[PathStep], list[PathStep]], validation: IOData, x0: str = "zero",
-    z: float = PAIRED_Z, cap: float = np.inf,
+    z: float = PAIRED_Z,
 ) -> tuple[int, PathStep]:
     """The lowest order whose best refined list is not significantly worse than the best model.
 
@@ -157,7 +157,7 @@ def select_order_refined(
         if i == best:
             return i, step
         worse, spread = _paired_difference(_error_shares(candidate.model, validation, x0), reference)
-        if np.isfinite(worse) and worse <= min(z * spread, cap):
+        if np.isfinite(worse) and worse <= z * spread:
             return i, step
     return best, path[best]
 
