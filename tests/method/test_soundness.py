@@ -13,10 +13,13 @@ import warnings
 import numpy as np
 import pytest
 import scipy.linalg
+from hypothesis import given
+from hypothesis import strategies as st
 
 import moli
 from moli.method.refinement import refine
 from moli.method.refined_covariance import refined_covariance
+from moli.method.structure import generic_indices
 
 OMEGA = np.linspace(0.05, 3.0, 12)
 NOISE = 0.3          # against outputs of standard deviation 2.0 and 1.8
@@ -80,13 +83,16 @@ def test_refined_order_rule_finds_the_order_of_a_noisy_plant():
     assert sum(order == 4 for order in orders) >= 4, orders
 
 
-def test_refined_covariance_predicts_the_spread_of_refined_estimates():
+@pytest.mark.parametrize("ridge", [0.0, 1.0])
+def test_refined_covariance_predicts_the_spread_of_refined_estimates(ridge):
+    # a ridge's model gets the free problem's covariance: with its penalty counted as
+    # information the predicted standard deviation was 0.3 of the actual, coverage 0.43
     truth = moli.StateSpaceModel([[1.6 * np.cos(0.4), -0.64], [1.0, 0.0]], [[1.0], [0.0]], [[1.0, 0.5]])
     alpha = moli.filter_polynomial(0.45, 0.7, [2])
     gains, predicted = [], []
     for seed in range(40):
         data = record(truth, 500, seed).remove_means()
-        model = refine(moli.estimate(data, [2], alpha), data).model
+        model = refine(moli.estimate(data, [2], alpha), data, ridge=ridge).model
         assert model.info["refine_iterations"] > 0
         attached = moli.estimate_covariance(model, data)
         assert attached.info["covariance"]["method"].startswith("output-error")
@@ -140,3 +146,50 @@ def test_the_readme_example_and_the_demo_pass_their_own_checks():
         moli.identify(*moli.example_data().split(0.5))
     verdicts = moli.residual_analysis(model, val).verdicts
     assert all("residuals white" in verdict for verdict in verdicts), verdicts
+
+
+def test_only_the_generic_list_holds_every_system_of_its_order():
+    # the dimension of the p x m systems of order n (no feedthrough) is n (p + m); the rank
+    # of the simulation error's Jacobian is the dimension of the family a list spans
+    rng = np.random.default_rng(1)
+    n, p, m = 5, 3, 3
+    A = rng.standard_normal((n, n))
+    truth = moli.StateSpaceModel(A * 0.8 / max(abs(np.linalg.eigvals(A))), rng.standard_normal((n, m)),
+                                 rng.standard_normal((p, n)))
+    u = rng.standard_normal((3000, m))
+    data = moli.IOData(truth.simulate(u) + 0.01 * rng.standard_normal((3000, p)), u)
+    ranks = {}
+    for indices in [(2, 2, 1), (2, 1, 2), (1, 2, 2), (3, 1, 1)]:
+        start = moli.estimate(data, list(indices), moli.filter_polynomial(0.45, 0.7, list(indices)))
+        ranks[indices] = refined_covariance(refine(start, data, iterations=2).model, data)[1]["rank"]
+    assert generic_indices(n, p) == (2, 2, 1)
+    assert ranks[(2, 2, 1)] == n * (p + m)
+    assert all(rank < n * (p + m) for indices, rank in ranks.items() if indices != (2, 2, 1)), ranks
+
+
+@given(st.integers(1, 40), st.integers(1, 8))
+def test_generic_indices_are_the_even_split_in_output_order(n, p):
+    indices = generic_indices(n, p)
+    assert sum(indices) == n and len(indices) == p
+    assert list(indices) == sorted(indices, reverse=True) and indices[0] - indices[-1] <= 1
+
+
+def test_bands_of_the_default_hold_every_channel_of_a_3x3_plant():
+    # example_plant at its order: the greedy step reaches order 6 as (3, 1, 2), a family of
+    # 34 dimensions where the plant needs 36, whose output-2 gains are biased; the generic
+    # list (2, 2, 2) is consistent and its bands hold the truth at about 0.95 of the points
+    truth = moli.example_plant()
+    inside = []
+    for seed in range(16):
+        rng = np.random.default_rng(seed)
+        u = rng.standard_normal((1000, 3))
+        est, val = moli.IOData(truth.simulate(u) + NOISE * rng.standard_normal((1000, 3)), u).split(600)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            model = moli.identify(est, val, order=6).model
+        lower, upper = model.magnitude_bands(OMEGA)
+        inside.append((lower <= gain(truth)) & (gain(truth) <= upper))
+    per_channel = np.mean(inside, axis=(0, 1))
+    # on these 16 records (3, 1, 2)'s worst channel held the truth at 0.62 of its points, the
+    # refined generic list's at 0.88 (0.96 over all channels); 0.8 lies between the two
+    assert per_channel.min() >= 0.8, per_channel

@@ -2,16 +2,20 @@
 
 A refined model (docs/method.md §12) minimizes the weighted simulation error
 ``V(theta, x0) = |r(theta, x0)|^2`` over the observer-form parameters. Around its
-minimum, ``theta_hat - theta* ~ (J^T J + P)^-1 J^T r``, with ``J`` the Jacobian of the
-residuals, ``P`` the ridge's penalty (zero for the free refinement) and ``theta*`` the
-value the estimate converges to. Output errors are coloured whatever the output noise
+minimum, ``theta_hat - theta* ~ (J^T J)^-1 J^T r``, with ``J`` the Jacobian of the
+residuals and ``theta*`` the value the estimate converges to. Output errors are coloured whatever the output noise
 (the noise itself, and the model's own error), so the spread of ``J^T r`` is the
 long-run covariance of the per-sample scores ``s_t = J_t^T r_t`` (Newey-West, the
 Bartlett kernel of :mod:`moli.method.covariance`), not ``sigma^2 J^T J``:
 
-    Cov(theta_hat) = (J^T J + P)^-1 S (J^T J + P)^-1,
+    Cov(theta_hat) = (J^T J)^+ S (J^T J)^+,
 
 which holds whether or not a noise model would be right (docs/uncertainty.md §2b).
+A ridge-refined model gets the same free-problem covariance: its penalty pulls toward
+the least-squares start, which is itself an estimate from the same record (and biased
+under output noise), so the penalty's curvature is not information about the
+parameters; counted in the bread, it made the bands hold the true gain at a third to a
+half of the points where the ridge's model was kept.
 The initial states are parameters of the same problem, so the parameters' covariance
 is the corresponding block of the joint one. It is propagated to ``A, B, C, D``
 through the observer form, ``A = A_D + D_o C``, ``C = (I - G)^-1 C_D``, ``B`` and the
@@ -55,8 +59,8 @@ def refined_covariance(model: StateSpaceModel, data: IOData,
     Parameters
     ----------
     model : StateSpaceModel
-        A refined MOLI model (:func:`is_refined`); ``info["refine_ridge"]`` sets the
-        penalty of the problem it solved.
+        A refined MOLI model (:func:`is_refined`), free or with a ridge: either gets the
+        free problem's covariance.
     data : IOData
         The record it was refined on, raw or centred (offsets handled as
         :func:`moli.compare`). Each segment has its own initial state, and no lag of the
@@ -95,19 +99,11 @@ def refined_covariance(model: StateSpaceModel, data: IOData,
     norms[norms == 0] = 1.0
     # the singular values and right vectors of the record-long matrix are its triangular factor's
     scaled = jac / norms
-    rows = [tall_factor(scaled)]
-    ridge = float(model.info.get("refine_ridge", 0.0))
-    if ridge > 0:
-        # the ridge's penalty in the column-scaled parameters: sqrt(ridge) per model
-        # parameter (its curvature's own scale, docs/method.md §12), none on x0
-        penalty = np.full(k, math.sqrt(ridge))
-        penalty[-problem.x0_size :] = 0.0
-        rows.append(np.diag(penalty))
     # The bread's pseudo-inverse: some lists give the simulation error a direction that
     # leaves the simulated output unchanged (17 parameters for a 16-dimensional family,
     # e.g. the coupling G beside the injection D_o); such a direction changes no response
     # of the model, so dropping it leaves every band unchanged.
-    _, values, vt = np.linalg.svd(np.vstack(rows), full_matrices=False)
+    _, values, vt = np.linalg.svd(tall_factor(scaled), full_matrices=False)
     if not values[0] > 0:
         raise DataError("the refined model's simulation error does not depend on its parameters on this record")
     kept = values > values[0] * NULL_DIRECTION

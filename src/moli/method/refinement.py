@@ -36,11 +36,16 @@ from ..numerics.triangular import column_norms, tall_factor
 from ..models.delays import shift_inputs
 from ..models.statespace import StateSpaceModel
 
-__all__ = ["RefineResult", "refine", "refine_each"]
+__all__ = ["RefineResult", "refine", "refine_each", "polish"]
 
 # Poles may move up to this radius: 1 - 1e-3 keeps time constants below 1000 samples,
 # far beyond any record the method is used on, while leaving round-off room.
 MAX_RADIUS = 1.0 - 1e-3
+# The selected model's refinement runs on until a step lowers V by less than this share of
+# one sample's error (V / (N p)): a Gauss-Newton step lowers V by its length squared in
+# standard errors, so the last step moved the estimate by about a tenth of one.
+POLISH_SHARE = 0.01
+POLISH_ITERATIONS = 100
 
 
 @dataclass
@@ -282,6 +287,45 @@ class RefinementStart:
         refined = self.finish(model, theta, accepted, info)
         return RefineResult(refined, x0 if data.n_segments == 1 else x0.reshape(data.n_segments, -1),
                             cost_start, cost, accepted, rejected)
+
+
+def polish(model: StateSpaceModel, data: IOData, max_radius: float = MAX_RADIUS) -> StateSpaceModel:
+    """A free output-error refinement continued to its optimum (a model of any other kind as it is).
+
+    ``identify`` compares lists and ridges on validation after a few refinement steps,
+    which act as early stopping (chosen on the generalization benchmark, docs/accuracy.md).
+    The generic list's refinement (:func:`moli.method.order_rules.generic_step`) is taken
+    on to the minimum of ``V``, where its estimate is consistent and the covariance of
+    :func:`moli.method.refined_covariance.refined_covariance` holds: on the 3x3 example
+    plant (600 samples) its least-squares start is 10-66 steps away, and stopped at ten
+    its bands held the true gain at 0.73-0.78 of the points, at the minimum 0.91-0.95.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        The model to continue; only a free output-error refinement with accepted steps is.
+    data : IOData
+        The record it was refined on.
+    max_radius : float, default 1 - 1e-3
+        Pole radius bound of the steps, as the refinement's.
+
+    Returns
+    -------
+    StateSpaceModel
+        ``info["refine_iterations"]`` counts the steps of both refinements.
+    """
+    info = model.info
+    if not (info.get("refined") and info.get("refine_iterations", 0) > 0 and info.get("refine_ridge", 0.0) == 0.0
+            and "refine_method" not in info):
+        return model
+    N, p = data.y.shape
+    result = refine(model, data, iterations=POLISH_ITERATIONS, max_radius=max_radius,
+                    tolerance=POLISH_SHARE / (N * p))
+    if result.iterations == 0:
+        return model
+    result.model.info.update(refine_iterations=info["refine_iterations"] + result.iterations,
+                             refine_cost_start=info["refine_cost_start"])
+    return result.model
 
 
 def _damped_solution(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:

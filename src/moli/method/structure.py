@@ -9,7 +9,7 @@ import numpy as np
 
 from ..errors import StructureError
 
-__all__ = ["check_indices", "compositions", "raised", "parameter_counts"]
+__all__ = ["check_indices", "compositions", "raised", "generic_indices", "parameter_counts"]
 
 Indices = tuple[int, ...]
 
@@ -67,6 +67,20 @@ def compositions(n: int, p: int) -> Iterator[Indices]:
 def raised(indices: Indices) -> list[Indices]:
     """The ``p`` lists obtained by raising one index of ``indices`` by one."""
     return [tuple(v + (i == j) for i, v in enumerate(indices)) for j in range(len(indices))]
+
+
+def generic_indices(n: int, p: int) -> Indices:
+    """The one list of order ``n`` whose observer form holds every system of that order.
+
+    With ``n = q p + r``: ``q + 1`` for the first ``r`` outputs, ``q`` for the others (the
+    observability indices of a generic system, the rows picked in output order). Every
+    other list spans a thinner family: the Jacobian of its simulation error has rank below
+    ``n (p + m)`` (26 to 29 of 30 for the lists of 3 outputs, 3 inputs and order 5, against
+    30 for (2, 2, 1); docs/method.md §12), and a plant outside it leaves a bias that no
+    record length removes.
+    """
+    q, r = divmod(n, p)
+    return tuple(q + 1 if j < r else q for j in range(p))
 
 
 def parameter_counts(indices: Indices, m: int) -> np.ndarray:
