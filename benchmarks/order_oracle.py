@@ -27,6 +27,7 @@ import single_thread  # noqa: F401  (before numpy: one BLAS thread)
 
 import argparse  # noqa: E402
 import json  # noqa: E402
+import re  # noqa: E402
 import time  # noqa: E402
 import warnings  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -66,6 +67,8 @@ def fixed_orders(seed: int, index: int) -> dict[str, Any] | None:
                 continue
         scores = gc.true_scores(case, (model.A, model.B, model.C, model.D))
         fits[order], h2[order] = scores["true_fit"], scores["h2"]
+    if not fits:
+        return None
     best = max(fits.values())
     truth_order = min(k for k, fit in fits.items() if fit >= best - ORACLE_TOLERANCE)
     return {"name": case.name, "n_true": case.meta["n_true"], "kind": case.meta["kind"], "p": case.est.p,
@@ -96,6 +99,8 @@ def rule_rows(cases: list[dict[str, Any]], against: dict[str, Any]) -> list[dict
 
 
 def markdown(cases: list[dict[str, Any]], rows: list[dict[str, Any]], seed: int) -> str:
+    if not cases:
+        return f"# The truth's order, seed {seed}\n\nNo synthetic case of {MIN_SNR:g} dB or more with the true order within nmax.\n"
     true = np.array([c["n_true"] for c in cases])
     oracle = np.array([c["truth_order"] for c in cases])
     below_p = int(np.sum(true < np.array([c["p"] for c in cases])))
@@ -129,13 +134,19 @@ def main() -> None:
     args = parser.parse_args()
     from joblib import Parallel, delayed
 
+    against = json.loads(Path(args.against).read_text()) if args.against else None
+    if against is not None:
+        # the case names repeat across seeds: another seed's run would pair unrelated systems
+        named = re.search(r"--seed (\d+)", against["command"])
+        if (int(named.group(1)) if named else 0) != args.seed:
+            parser.error(f"{args.against} is not a run of seed {args.seed} (its command: {against['command']})")
     started = time.perf_counter()
     found = Parallel(n_jobs=args.jobs)(delayed(fixed_orders)(args.seed, i) for i in range(args.synthetic))
     cases = [c for c in found if c is not None]
     for case in cases:   # JSON keys: the orders as text, as they read back
         case["true_fit"] = {str(k): v for k, v in case["true_fit"].items()}
         case["h2"] = {str(k): v for k, v in case["h2"].items()}
-    rows = rule_rows(cases, json.loads(Path(args.against).read_text())) if args.against else []
+    rows = rule_rows(cases, against) if against else []
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     report = {"seed": args.seed, "seconds": time.perf_counter() - started, "cases": cases, "rules": rows}

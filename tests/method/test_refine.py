@@ -1,5 +1,7 @@
 """Output-error refinement: exactness, monotone cost, stability, analytic Jacobian."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -7,7 +9,8 @@ import moli
 from moli.errors import OptionError
 from moli.method.observer_form import observer_form
 from moli.method.output_error import OutputErrorProblem
-from moli.method.refinement import refine, refine_each
+from moli.method.order_rules import generic_candidate
+from moli.method.refinement import polish, refine, refine_each
 
 
 def _plant(seed=0):
@@ -167,11 +170,12 @@ def test_identify_refines_the_selected_model():
     assert refined.options.refine == "selected"
     assert refined.model.info.get("refined") is True
     assert refined.model.info["refine_cost"] <= refined.model.info["refine_cost_start"]
-    # the path up to the order rule is the same search (at the selected order the guarded
-    # default may keep another list: a sibling, or the generic list)
-    below = plain.selected_index
+    # the path is the same search (at the selected order the guarded default may keep
+    # another list: a sibling, or the generic list)
+    kept = plain.selected_index
     assert [st.order for st in refined.path] == [st.order for st in plain.path]
-    assert [st.indices for st in refined.path[:below]] == [st.indices for st in plain.path[:below]]
+    assert ([st.indices for i, st in enumerate(refined.path) if i != kept]
+            == [st.indices for i, st in enumerate(plain.path) if i != kept])
 
 
 def _markov_error(model, lags=40):
@@ -221,3 +225,38 @@ def test_guarded_refinement_keeps_the_best_of_its_ridges_on_validation():
     alone = [moli.identify(est, val, nmax=4, refine_ridge=ridge) for ridge in (0.0, 1.0)]
     assert both.selected.mean_vaf == max(r.selected.mean_vaf for r in alone)
     assert both.model.info.get("refine_ridge") in (None, 0.0, 1.0)
+
+
+def test_polish_continues_a_free_refinement_to_its_minimum_and_leaves_others_alone():
+    data = _record(noise=0.3, N=800, seed=3).remove_means()
+    start = _start(data)
+    early = refine(start, data, iterations=2).model
+    polished = polish(early, data)
+    # the two refinements' steps are counted together, from the first one's start
+    assert polished.info["refine_iterations"] > 2
+    assert polished.info["refine_cost_start"] == early.info["refine_cost_start"]
+    assert polished.info["refine_cost"] <= early.info["refine_cost"]
+    # at its minimum: another polish takes at most a step or two, each lowering V by less
+    # than a thousandth of its value (the stop is a hundredth of one sample's share)
+    again = refine(polished, data, iterations=50, tolerance=0.0)
+    assert again.cost_start - again.cost <= 1e-3 * again.cost_start
+    # a ridge's refinement, a least-squares model and one without accepted steps stay as they are
+    ridged = refine(start, data, iterations=2, ridge=1.0).model
+    for model in (ridged, start, refine(start, data, iterations=0).model):
+        assert polish(model, data) is model
+
+
+def test_generic_candidate_only_where_the_selected_list_is_not_generic():
+    data = _record(noise=0.1, N=600, seed=4)
+    est, val = data.split(400)
+    est, val = est.remove_means(), val.remove_means()
+    search = moli.method.search.StructureSearch(est, val, moli.method.tuning.default_omega(), "grid")
+
+    def free(step):
+        model = refine(step.model, est, iterations=3).model
+        return dataclasses.replace(step, model=model, vaf=moli.compare(model, val).vaf)
+
+    # two outputs, order 3: the generic list is (2, 1)
+    assert generic_candidate(search, search.fit((2, 1)), free, est, val) == []
+    (candidate,) = generic_candidate(search, search.fit((1, 2)), free, est, val)
+    assert candidate.indices == (2, 1) and candidate.model.info["refine_iterations"] >= 3

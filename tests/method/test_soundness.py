@@ -167,8 +167,9 @@ def test_only_the_generic_list_holds_every_system_of_its_order():
     assert all(rank < n * (p + m) for indices, rank in ranks.items() if indices != (2, 2, 1)), ranks
 
 
-@given(st.integers(1, 40), st.integers(1, 8))
-def test_generic_indices_are_the_even_split_in_output_order(n, p):
+@given(st.integers(1, 8), st.integers(0, 40))
+def test_generic_indices_are_the_even_split_in_output_order(p, extra):
+    n = p + extra                   # MOLI gives every output at least one index
     indices = generic_indices(n, p)
     assert sum(indices) == n and len(indices) == p
     assert list(indices) == sorted(indices, reverse=True) and indices[0] - indices[-1] <= 1
@@ -190,6 +191,7 @@ def test_bands_of_the_default_hold_every_channel_of_a_3x3_plant():
         lower, upper = model.magnitude_bands(OMEGA)
         inside.append((lower <= gain(truth)) & (gain(truth) <= upper))
     per_channel = np.mean(inside, axis=(0, 1))
-    # on these 16 records (3, 1, 2)'s worst channel held the truth at 0.62 of its points, the
-    # refined generic list's at 0.88 (0.96 over all channels); 0.8 lies between the two
+    # on these 16 records the default before the generic list (13 of them (3, 1, 2)) held the
+    # truth at 0.62 of its worst channel's points, now 0.88 (0.96 over all channels); 0.8
+    # lies between the two
     assert per_channel.min() >= 0.8, per_channel

@@ -24,10 +24,10 @@ from .noise_model import estimate_noise_model
 from .options import IdentifyOptions
 from .reference_projection import ReferenceProjection, two_stage_records, without_reference
 from .prediction_error import prediction_error_refine
-from .refinement import MAX_RADIUS, polish, refine_each
+from .refinement import MAX_RADIUS, refine_each
 from .refined_covariance import is_refined
 from .result import IdentificationResult
-from .order_rules import (clearly_better, generic_step, select_order, select_order_paired, select_order_refined,
+from .order_rules import (clearly_better, generic_candidate, select_order, select_order_paired, select_order_refined,
                           siblings)
 from .search import PathStep, StructureSearch, greedy_path
 from .selection_check import warn_if_short_selection
@@ -284,14 +284,12 @@ def identify(
                     for candidate in refined(sibling, ridges[:1]):
                         if clearly_better(candidate, path[selected], scored, opts.x0):
                             path[selected] = candidate
-                # the generic list holds every system of the order: refined to its optimum, and
-                # kept where it fits validation within the order tolerance (docs/method.md §12)
-                for generic in [] if interrupted else generic_step(search, path[selected]):
-                    for candidate in refined(generic, ridges[:1]):
-                        model = polish(candidate.model, searched, bound)
-                        candidate = replace(candidate, model=model, vaf=compare(model, scored, opts.x0).vaf)
-                        if candidate.stable and candidate.mean_vaf >= path[selected].mean_vaf - opts.order_tolerance:
-                            path[selected] = candidate
+                # the generic list spans almost every system of the order: kept where it fits
+                # validation within the order tolerance (docs/method.md §12)
+                for candidate in [] if interrupted else generic_candidate(
+                        search, path[selected], lambda st: refined(st, (0.0,))[0], searched, scored, opts.x0, bound):
+                    if candidate.mean_vaf >= path[selected].mean_vaf - opts.order_tolerance:
+                        path[selected] = candidate
             if loop == "direct":
                 # the noise model of the model so far starts the joint prediction-error estimate
                 stage = begin("noise model")

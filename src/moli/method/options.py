@@ -112,10 +112,14 @@ class IdentifyOptions:
     refine : {"none", "selected", "path", "guarded"}, default "guarded"
         Output-error refinement of the selected model, or of every path model before
         the order rule (docs/method.md §12); "guarded": the selected model's refinement,
-        kept only where it raises the mean validation VAF. True and False mean
-        "selected" and "none".
+        kept only where it raises the mean validation VAF; another list the greedy step
+        compared at that order, where its refinement is better by a paired standard error;
+        and the order's generic list refined to its optimum, where its validation fit is
+        within ``order_tolerance`` of the model so far. True and False mean "selected"
+        and "none".
     refine_iterations : int, default 10
-        Most Levenberg-Marquardt steps of the refinement.
+        Most Levenberg-Marquardt steps of each refinement compared on validation (the
+        generic list's then runs on to its optimum, docs/method.md §12).
     refine_ridge : float or tuple of float, default (0.0, 1.0)
         Penalty of the refinement toward the MOLI estimate, relative to each
         parameter's curvature (docs/method.md §12); 0: free refinement. Several values:
@@ -279,15 +283,15 @@ class IdentifyOptions:
         """The default search made cheaper at a small, measured cost in fit.
 
         Each refinement of the guarded refinement stops after five Levenberg-Marquardt steps
-        instead of ten; every other choice is the default's, the noise model and its bands
-        included. On the evaporator's paper split it takes about 0.85 of the default's time
+        instead of ten (the generic list's still runs on to its optimum); every other choice
+        is the default's, the noise model and its bands included. On the evaporator's paper split it takes about 0.85 of the default's time
         (docs/performance.md). Its mean validation VAF, paired over the 119 cases of the
         generalization benchmark, is 0.10, 0.15 and 0.03 points below the default's on seeds
         0, 1 and 2, within the 0.3 points a preset may lose. Seed 0 first chose two steps
         (0.77 of the time), which lost 0.36 points on seed 1; five steps was the next
         candidate of seed 0 (docs/accuracy.md, "The fast preset"). Smaller filter grids were
         cheaper but lost a DaISy record by tens of points; refining with the ridge of 1 alone
-        left the gain bands too narrow.
+        left the gain bands too narrow (with the ridge's penalty then in their covariance).
 
         Parameters
         ----------

@@ -9,6 +9,8 @@
 
 from __future__ import annotations
 
+import warnings
+from dataclasses import replace
 from typing import Callable
 
 import numpy as np
@@ -16,10 +18,12 @@ import numpy as np
 from ..data.iodata import IOData
 from ..models.statespace import StateSpaceModel
 from ..validation.comparison import compare
+from ..errors import MoliError
+from .refinement import MAX_RADIUS, polish
 from .search import PathStep, StructureSearch
 from .structure import generic_indices, raised
 
-__all__ = ["select_order", "select_order_paired", "select_by_shares", "error_shares", "select_order_refined", "siblings", "generic_step", "clearly_better"]
+__all__ = ["select_order", "select_order_paired", "select_by_shares", "error_shares", "select_order_refined", "siblings", "generic_candidate", "clearly_better"]
 
 # Batches of the paired order rule: enough for a standard error, each long enough
 # (tens of samples on short records) to hold the errors' serial correlation.
@@ -179,22 +183,58 @@ def siblings(search: StructureSearch, path: list[PathStep], selected: int) -> li
     return search.fit_many(lists)
 
 
-def generic_step(search: StructureSearch, step: PathStep) -> list[PathStep]:
-    """The generic list of ``step``'s order, fitted and validated, where ``step`` has another
-    feasible list; else nothing.
+def generic_candidate(search: StructureSearch, step: PathStep, refine_free: Callable[[PathStep], PathStep],
+                      data: IOData, validation: IOData, x0: str = "zero",
+                      max_radius: float = MAX_RADIUS) -> list[PathStep]:
+    """The generic list of ``step``'s order, refined freely to its optimum and validated,
+    where ``step`` has another list; else (or where it cannot be fitted, or is unstable) nothing.
 
     The greedy step reaches an order through the list whose least-squares model simulates
     best, and under output noise that is often a thinner family than the plant needs (the
     3x3 example plant reached as (3, 1, 2): a Jacobian of rank 34 where systems of order 6
     have 36 dimensions, and two of its output-2 gains held by their 95 % bands at 0.6-0.7
-    of the points). The generic list (:func:`moli.method.structure.generic_indices`) holds
-    every system of the order, so its refinement is consistent whatever the plant's
-    structure.
+    of the points). The generic list (:func:`moli.method.structure.generic_indices`) spans
+    almost every system of the order (an open dense set), so its refinement is consistent
+    whatever the plant's structure. It starts from a least-squares model of a list the
+    greedy step did not choose, often far from its optimum, so the few steps ``refine_free``
+    takes (those of every list compared) are continued by
+    :func:`moli.method.refinement.polish`.
+
+    Parameters
+    ----------
+    search : StructureSearch
+        The search of the path (fits, tunes and validates the list).
+    step : PathStep
+        The model so far at the selected order.
+    refine_free : callable
+        ``refine_free(step)``: the free refinement of a step, validated.
+    data : IOData
+        The record the refinements run on.
+    validation : IOData
+        The record the path's VAFs were computed on.
+    x0 : {"zero", "estimate"}
+        Initial state of the validation simulations.
+    max_radius : float
+        Pole radius bound of the refinement's steps.
+
+    Returns
+    -------
+    list of PathStep
     """
     generic = generic_indices(step.order, len(step.indices))
     if generic == tuple(step.indices) or not search.feasible(generic):
         return []
-    return [search.fit(generic)]
+    with warnings.catch_warnings():
+        # a list the path did not take: its least squares may be unstable, and it is optional
+        warnings.simplefilter("ignore", RuntimeWarning)
+        try:
+            candidate = refine_free(search.fit(generic))
+        except (MoliError, np.linalg.LinAlgError):
+            return []
+        model = polish(candidate.model, data, max_radius)
+        if model is not candidate.model:
+            candidate = replace(candidate, model=model, vaf=compare(model, validation, x0).vaf)
+    return [candidate] if candidate.stable else []
 
 
 def clearly_better(step: PathStep, than: PathStep, validation: IOData, x0: str = "zero",

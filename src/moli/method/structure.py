@@ -70,11 +70,12 @@ def raised(indices: Indices) -> list[Indices]:
 
 
 def generic_indices(n: int, p: int) -> Indices:
-    """The one list of order ``n`` whose observer form holds every system of that order.
+    """The one list of order ``n >= p`` whose observer form spans almost every system of that order.
 
     With ``n = q p + r``: ``q + 1`` for the first ``r`` outputs, ``q`` for the others (the
-    observability indices of a generic system, the rows picked in output order). Every
-    other list spans a thinner family: the Jacobian of its simulation error has rank below
+    observability indices of a generic system, the rows picked in output order); its
+    family is an open dense set of the ``p x m`` systems of order ``n``. Every other list
+    spans a thinner family: the Jacobian of its simulation error has rank below
     ``n (p + m)`` (26 to 29 of 30 for the lists of 3 outputs, 3 inputs and order 5, against
     30 for (2, 2, 1); docs/method.md §12), and a plant outside it leaves a bias that no
     record length removes.
