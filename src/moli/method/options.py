@@ -284,8 +284,8 @@ class IdentifyOptions:
 
         Each refinement of the guarded refinement stops after five Levenberg-Marquardt steps
         instead of ten (the generic list's still runs on to its optimum); every other choice
-        is the default's, the noise model and its bands included. On the evaporator's paper split it takes about 0.85 of the default's time
-        (docs/performance.md). Its mean validation VAF, paired over the 119 cases of the
+        is the default's, the noise model and its bands included. On the evaporator's paper
+        split it takes 0.85-0.99 of the default's time (docs/performance.md, "The generic list"). Its mean validation VAF, paired over the 119 cases of the
         generalization benchmark, is 0.10, 0.15 and 0.03 points below the default's on seeds
         0, 1 and 2, within the 0.3 points a preset may lose. Seed 0 first chose two steps
         (0.77 of the time), which lost 0.36 points on seed 1; five steps was the next

@@ -3,10 +3,10 @@
 A refined model (docs/method.md §12) minimizes the weighted simulation error
 ``V(theta, x0) = |r(theta, x0)|^2`` over the observer-form parameters. Around its
 minimum, ``theta_hat - theta* ~ (J^T J)^-1 J^T r``, with ``J`` the Jacobian of the
-residuals and ``theta*`` the value the estimate converges to. Output errors are coloured whatever the output noise
-(the noise itself, and the model's own error), so the spread of ``J^T r`` is the
-long-run covariance of the per-sample scores ``s_t = J_t^T r_t`` (Newey-West, the
-Bartlett kernel of :mod:`moli.method.covariance`), not ``sigma^2 J^T J``:
+residuals and ``theta*`` the value the estimate converges to. Output errors are coloured
+whatever the output noise (the noise itself, and the model's own error), so the spread
+of ``J^T r`` is the long-run covariance of the per-sample scores ``s_t = J_t^T r_t``
+(Newey-West, the Bartlett kernel of :mod:`moli.method.covariance`), not ``sigma^2 J^T J``:
 
     Cov(theta_hat) = (J^T J)^+ S (J^T J)^+,
 

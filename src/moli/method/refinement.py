@@ -41,9 +41,9 @@ __all__ = ["RefineResult", "refine", "refine_each", "polish"]
 # Poles may move up to this radius: 1 - 1e-3 keeps time constants below 1000 samples,
 # far beyond any record the method is used on, while leaving round-off room.
 MAX_RADIUS = 1.0 - 1e-3
-# The selected model's refinement runs on until a step lowers V by less than this share of
-# one sample's error (V / (N p)): a Gauss-Newton step lowers V by its length squared in
-# standard errors, so the last step moved the estimate by about a tenth of one.
+# polish runs on until a step lowers V by less than this share of one sample's error
+# (V / (N p)): a Gauss-Newton step lowers V by its length squared in standard errors, so
+# the last step moved the estimate by about a tenth of one.
 POLISH_SHARE = 0.01
 POLISH_ITERATIONS = 100
 
@@ -294,7 +294,7 @@ def polish(model: StateSpaceModel, data: IOData, max_radius: float = MAX_RADIUS)
 
     ``identify`` compares lists and ridges on validation after a few refinement steps,
     which act as early stopping (chosen on the generalization benchmark, docs/accuracy.md).
-    The generic list's refinement (:func:`moli.method.order_rules.generic_step`) is taken
+    The generic list's refinement (:func:`moli.method.order_rules.generic_candidate`) is taken
     on to the minimum of ``V``, where its estimate is consistent and the covariance of
     :func:`moli.method.refined_covariance.refined_covariance` holds: on the 3x3 example
     plant (600 samples) its least-squares start is 10-66 steps away, and stopped at ten
