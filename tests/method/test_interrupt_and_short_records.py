@@ -6,9 +6,12 @@ import warnings
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import moli
 from moli.method import identification
+from moli.method.rows import largest_order, samples_needed
 from moli.method.selection_check import SAMPLES_PER_PARAMETER, selection_samples_needed
 
 NMAX = 4
@@ -82,3 +85,26 @@ def test_ctrl_c_in_the_refined_order_rule_falls_back_to_the_paired_rule(halves, 
     assert cut.skipped == ("order rule's refinements", "refinement", "covariance", "noise model")
     assert cut.selected.indices == paired.selected.indices
     assert cut.selection.startswith("lowest order within one paired standard error")
+
+
+@settings(max_examples=200, deadline=None)
+@given(N=st.integers(0, 3000), p=st.integers(1, 5), m=st.integers(0, 4), feedthrough=st.booleans())
+def test_largest_order_is_the_last_balanced_list_the_samples_estimate(N, p, m, feedthrough):
+    """By its definition: the balanced list (longer indices first) of that order fits in N
+    samples and the next order's does not; p - 1 when not even order p fits."""
+    def fits(n):
+        q, r = divmod(n, p)
+        return samples_needed((q + 1,) * r + (q,) * (p - r), m, feedthrough) <= N
+
+    n = largest_order(N, p, m, feedthrough)
+    assert n >= p - 1 and not fits(n + 1)
+    assert n == p - 1 or fits(n)
+
+
+def test_largest_order_of_a_long_record_is_found_at_once():
+    """The 700000 estimation samples of a 10^6-sample record reach order 299997 with 3
+    outputs and 3 inputs: found by bisection, not by stepping through every order (which
+    took seconds on such records)."""
+    q = 299997 // 3
+    assert samples_needed((q, q, q), 3) <= 700000 < samples_needed((q + 1, q, q), 3)
+    assert largest_order(700000, 3, 3) == 299997

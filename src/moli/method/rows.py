@@ -52,14 +52,19 @@ def samples_needed(indices: Indices, m: int, feedthrough: bool = False) -> int:
 def largest_order(N: int, p: int, m: int, feedthrough: bool = False) -> int:
     """The largest order whose cheapest list (the balanced one, longer indices first) ``N``
     samples can estimate; ``p - 1`` when none can."""
-    def balanced(n: int) -> tuple[int, ...]:
+    def fits(n: int) -> bool:
         q, r = divmod(n, p)
-        return (q + 1,) * r + (q,) * (p - r)
+        return samples_needed((q + 1,) * r + (q,) * (p - r), m, feedthrough) <= N
 
-    n = p - 1
-    while samples_needed(balanced(n + 1), m, feedthrough) <= N:
-        n += 1
-    return n
+    # the samples needed grow with the order: double a bound past the answer, then bisect
+    # (a long record reaches orders in the hundred thousands: stepping one by one took seconds)
+    low, high = p - 1, p
+    while fits(high):
+        low, high = high, 2 * high
+    while high - low > 1:
+        middle = (low + high) // 2
+        low, high = (middle, high) if fits(middle) else (low, middle)
+    return low
 
 
 def check_sample_count(N: int, indices: Indices, m: int, feedthrough: bool = False) -> None:
