@@ -85,7 +85,9 @@ class DataQualityWarning(UserWarning):
 
 
 class OrderBoundWarning(UserWarning):
-    """The selected order is the largest the structure search was allowed to reach."""
+    """The selected order is the largest the structure search was allowed to reach, and it
+    fits the validation data clearly better (two paired standard errors) than every lower
+    order: a higher order may fit better still."""
 
 
 class ShortValidationWarning(UserWarning):

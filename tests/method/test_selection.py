@@ -154,3 +154,35 @@ def test_paired_order_rule_is_the_best_model_when_nothing_ties():
     chosen = select_order_paired(result.path, val_c, z=0.0)  # no tolerance: the best stable model
     stable = [i for i, st in enumerate(result.path) if st.stable]
     assert chosen == max(stable, key=lambda i: result.path[i].mean_vaf)
+
+
+def _scored_step(model, order, validation):
+    from moli.validation.comparison import compare
+    return PathStep((order,), order, 0.1, 0.1, np.array([1.0, 1.0]), compare(model, validation).vaf, model, 0.0)
+
+
+def test_a_bound_order_warns_only_where_it_clearly_beats_the_lower_ones():
+    from moli.method.selection_check import warn_if_at_bound
+
+    # a lightly damped second-order plant seen through 5 % output noise
+    rng = np.random.default_rng(0)
+    true = moli.StateSpaceModel([[1.6, -0.8], [1.0, 0.0]], [[1.0], [0.0]], [[0.1, 0.05]])
+    u = rng.standard_normal((2000, 1))
+    y = true.simulate(u)
+    validation = moli.IOData(y + 0.05 * y.std() * rng.standard_normal(y.shape), u)
+    first_order = moli.StateSpaceModel([[0.9]], [[1.0]], [[0.1]])
+    # the order-2 model at the bound nmax = 2 fits far better than order 1: a higher order
+    # may fit better still, and the run says so
+    with pytest.warns(moli.OrderBoundWarning, match="nmax = 2"):
+        warn_if_at_bound([_scored_step(first_order, 1, validation), _scored_step(true, 2, validation)], 1, 2,
+                         validation)
+    # the same model at both orders (a state that changes nothing): whatever its score says
+    # by a hair, the bound order does not beat the lower one, and nothing is said
+    lower, bound = _scored_step(true, 1, validation), _scored_step(true, 2, validation)
+    bound = PathStep(bound.indices, 2, 0.1, 0.1, bound.eta, bound.vaf + 0.05, true, 0.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", moli.OrderBoundWarning)
+        warn_if_at_bound([lower, bound], 1, 2, validation)
+        # below the bound there is nothing to say either
+        warn_if_at_bound([_scored_step(first_order, 1, validation), _scored_step(true, 2, validation)], 1, 3,
+                         validation)

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..data.iodata import IOData, longest_segment
 from ..data.quality import screen
-from ..errors import ClosedLoopWarning, DataError, OptionError, OrderBoundWarning
+from ..errors import ClosedLoopWarning, DataError, OptionError
 from ..models.statespace import StateSpaceModel
 from ..validation.comparison import compare, same_period
 from ..validation.feedback import feedback_check, usable_lags
@@ -30,7 +30,7 @@ from .result import IdentificationResult
 from .order_rules import (clearly_better, generic_candidate, select_order, select_order_paired, select_order_refined,
                           siblings)
 from .search import PathStep, StructureSearch, greedy_path
-from .selection_check import warn_if_short_selection
+from .selection_check import warn_if_at_bound, warn_if_short_selection
 from .tuning import default_omega
 from .uncertainty import estimate_covariance
 from .continuous.identification import ContinuousResult, identify_continuous
@@ -322,12 +322,8 @@ def identify(
     model.info["closed_loop"] = _loop_record(loop, projection, feedback)
     model.warn_if_unstable(stacklevel=2)
     # a fixed order is the caller's choice, not the search running into its bound
-    if path[selected].order >= nmax and not interrupted and path[selected].order != opts.order:
-        warnings.warn(
-            f"the selected order {path[selected].order} is the search's bound nmax = {nmax}: a "
-            f"higher order may fit better; raise it with nmax=... (moli fit --nmax)",
-            OrderBoundWarning, stacklevel=2,
-        )
+    if not interrupted and path[selected].order != opts.order:
+        warn_if_at_bound(path, selected, nmax, validation, opts.x0)
     warn_if_short_selection(path, scored.N, scored.m, stacklevel=2)
     return IdentificationResult(
         model=model, path=path, selected_index=selected, estimation=estimation,

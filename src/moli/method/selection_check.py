@@ -1,8 +1,10 @@
-"""Whether the validation part that chose the order was long enough to choose it.
+"""What the validation scores that chose the order can and cannot say.
 
 The order rule ranks the path's models by their validation scores. A record of a few
 dozen samples still yields a path and a "best" order, and nothing in the scores says
-that they rest on too few samples: :func:`warn_if_short_selection` says so.
+that they rest on too few samples: :func:`warn_if_short_selection` says so. An order at
+the search's bound may call for a higher one, but only where the bound order wins by more
+than the validation record's chance: :func:`warn_if_at_bound`.
 """
 
 from __future__ import annotations
@@ -10,11 +12,14 @@ from __future__ import annotations
 import warnings
 from typing import Sequence
 
-from ..errors import ShortValidationWarning
+from ..data.iodata import IOData
+from ..errors import OrderBoundWarning, ShortValidationWarning
+from .order_rules import clearly_better
 from .rows import parameter_counts
 from .search import PathStep
 
-__all__ = ["SAMPLES_PER_PARAMETER", "selection_samples_needed", "warn_if_short_selection"]
+__all__ = ["SAMPLES_PER_PARAMETER", "BOUND_Z", "selection_samples_needed", "warn_if_short_selection",
+           "warn_if_at_bound"]
 
 # A rule of thumb, not a test: the order rule compares validation VAFs that differ by a
 # point or two between neighbouring orders, and a VAF scored on N samples moves by about
@@ -25,6 +30,10 @@ __all__ = ["SAMPLES_PER_PARAMETER", "selection_samples_needed", "warn_if_short_s
 # for the usual path (3x3, nmax 10: about 260 samples); the common least-squares rule
 # of ten observations per unknown says the same.
 SAMPLES_PER_PARAMETER = 10
+# Paired standard errors by which the model at the search's bound must beat every lower
+# order of the path before the run says a higher order may fit better (one-sided, about
+# 2 % by chance where the lower order is as good).
+BOUND_Z = 2.0
 
 
 def selection_samples_needed(path: Sequence[PathStep], m: int) -> int:
@@ -75,3 +84,40 @@ def warn_if_short_selection(path: Sequence[PathStep], validation_samples: int, m
             "is uncertain; give a longer record or more validation data, or fix the order (order=..., moli fit --order)",
             ShortValidationWarning, stacklevel=stacklevel + 1,
         )
+
+
+def warn_if_at_bound(path: Sequence[PathStep], selected: int, nmax: int, validation: IOData, x0: str = "zero",
+                     stacklevel: int = 2) -> None:
+    """Issue an :class:`OrderBoundWarning` when the selected order is the search's bound
+    ``nmax`` and beats the best lower order of ``path`` by more than :data:`BOUND_Z` paired
+    standard errors on ``validation`` (:func:`moli.method.order_rules.clearly_better`).
+
+    Under strong output noise the least-squares path buys validation fit with each state
+    it adds, by less than the record can tell apart; a bound order that does not clearly
+    win says nothing about higher ones.
+
+    Parameters
+    ----------
+    path : sequence of PathStep
+    selected : int
+        Position of the selected model in ``path``.
+    nmax : int
+        The search's bound.
+    validation : IOData
+        The record the path's VAFs were computed on.
+    x0 : {"zero", "estimate"}
+        Initial state of the validation simulations.
+    stacklevel : int
+        As for :func:`warnings.warn`, counted from the caller.
+    """
+    chosen = path[selected]
+    lower = [step for step in path if step.order < chosen.order and (step.stable or not chosen.stable)]
+    if chosen.order < nmax or (lower and not clearly_better(chosen, max(lower, key=lambda step: step.mean_vaf),
+                                                              validation, x0, BOUND_Z)):
+        return
+    warnings.warn(
+        f"the selected order {chosen.order} is the search's bound nmax = {nmax}, and it fits the "
+        f"validation data clearly better than every lower order: a higher order may fit better; "
+        f"raise it with nmax=... (moli fit --nmax)",
+        OrderBoundWarning, stacklevel=stacklevel + 1,
+    )
