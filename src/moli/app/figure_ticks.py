@@ -32,7 +32,8 @@ from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.ticker import Formatter, LogFormatterSciNotation, Locator, NullLocator
 
-__all__ = ["InViewLocator", "trim_ticks", "unlabelled_minor_ticks_as_lines", "unplaced_empty_labels", "PlainLogFormatter", "plain_log_labels"]
+__all__ = ["InViewLocator", "PlainLogFormatter", "in_view", "plain_log_labels", "trim_ticks",
+           "unlabelled_minor_ticks_as_lines", "unplaced_empty_labels"]
 
 # The labels a log axis's formatter sets in mathtext: "$\mathdefault{10^{-2}}$",
 # "$\mathdefault{2\times10^{0}}$", "$\mathdefault{0.5}$". Anything else is kept as it is.

@@ -92,9 +92,9 @@ def warn_if_at_bound(path: Sequence[PathStep], selected: int, nmax: int, validat
     ``nmax`` and beats the best lower order of ``path`` by more than :data:`BOUND_Z` paired
     standard errors on ``validation`` (:func:`moli.method.order_rules.clearly_better`).
 
-    Under strong output noise the least-squares path buys validation fit with each state
-    it adds, by less than the record can tell apart; a bound order that does not clearly
-    win says nothing about higher ones.
+    A bound order that wins by less than the validation record's chance says nothing about
+    higher ones; one that clearly wins does (under strong output noise that is often the
+    least-squares path buying back its bias with each state, docs/accuracy.md).
 
     Parameters
     ----------
