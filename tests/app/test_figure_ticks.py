@@ -13,6 +13,7 @@ from matplotlib.collections import LineCollection
 from matplotlib.ticker import LogFormatterSciNotation, NullLocator
 
 from moli.app import figures
+from moli.app.figure_files import DPI, save_figure
 from moli.app.figure_ticks import (PlainLogFormatter, plain_log_labels, trim_ticks, unlabelled_minor_ticks_as_lines,
                                    unplaced_empty_labels)
 
@@ -48,7 +49,7 @@ def test_trimmed_ticks_draw_the_same_pixels(draw):
 
 def test_a_saved_report_figure_holds_ticks_only_in_its_view(tmp_path):
     fig = figures.bode_magnitude(_model())
-    figures.save_figure(fig, tmp_path / "magnitude.png")
+    save_figure(fig, tmp_path / "magnitude.png")
     for ax in fig.axes:
         for axis in (ax.xaxis, ax.yaxis):
             for locs, ticks in ((axis.get_majorticklocs(), axis.majorTicks),
@@ -66,7 +67,7 @@ def _rgb(png: bytes) -> np.ndarray:
 
 def _saved_by_matplotlib(fig) -> bytes:
     buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=figures.DPI)
+    fig.savefig(buffer, format="png", dpi=DPI)
     return buffer.getvalue()
 
 
@@ -84,7 +85,7 @@ def test_a_saved_figure_draws_what_savefig_draws(tmp_path, draw):
     trim_ticks(reference)
     plain_log_labels(reference)
     expected = _rgb(_saved_by_matplotlib(reference))
-    saved = _rgb(figures.save_figure(draw(model), tmp_path / "figure.png"))
+    saved = _rgb(save_figure(draw(model), tmp_path / "figure.png"))
     assert saved.shape == expected.shape
     differ = np.abs(saved - expected).max(axis=2)
     # the lines replacing the minor ticks are antialiased along other pixel boundaries than

@@ -32,7 +32,8 @@ from ..models.statespace import StateSpaceModel
 from ..models.storage import load_model
 from ..systems.plant import example_data
 from ..validation.comparison import X0_CHOICES, compare
-from .figures import measured_vs_simulated, save_figure
+from .figure_files import save_figure
+from .figures import measured_vs_simulated
 from .fleet_cli import fleet_commands
 from .fleet_report import SCORES
 from .outputs import REPORT_FILE, refuse_overwrite, run_folder

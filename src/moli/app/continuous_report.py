@@ -16,6 +16,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from . import figures
+from .figure_files import save_figure
 from .._version import __version__
 from ..data.atomic_files import write_atomic
 from ..data.display import figure_label, report_name
@@ -132,7 +133,7 @@ def write_continuous_report(result: ContinuousResult, directory: str | Path,
                       "95 % confidence band of the estimate."),
     }
     shown = "".join(
-        f"<figure>{embedded_image(figures.save_figure(fig, out / f'{name}.png'), name)}"
+        f"<figure>{embedded_image(save_figure(fig, out / f'{name}.png'), name)}"
         f"<figcaption class='note'>{caption}</figcaption></figure>" for name, (fig, caption) in drawn.items())
     poles = "".join(f"<li>{html.escape(line.strip())}</li>" for line in model.pole_table()[1:]
                     if line.startswith("  "))

@@ -6,32 +6,26 @@ pyplot, so drawing many reports never accumulates open windows or memory.
 
 from __future__ import annotations
 
-import io
-from pathlib import Path
 from typing import Sequence
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
-from matplotlib.image import imsave
 
-from ..data.atomic_files import write_atomic
 from ..data.display import figure_label
 from ..data.iodata import IOData
 from ..models.statespace import StateSpaceModel
 from ..method.search import PathStep
 from ..validation.comparison import Comparison
 from ..validation.frequency import EmpiricalResponse, empirical_frequency_response
-from .figure_ticks import plain_log_labels, trim_ticks, unlabelled_minor_ticks_as_lines, unplaced_empty_labels
 
 __all__ = [
     "singular_values",
     "vaf_by_order", "measured_vs_simulated", "poles", "step_responses", "settling_samples",
-    "bode_magnitude", "envelope", "save_figure",
+    "bode_magnitude", "envelope",
 ]
 
 PANEL_HEIGHT = 1.9  # inches per row of axes
-DPI = 110  # a 7.5-inch figure some 800 pixels wide
 # Confidence of the bands drawn around responses of models that carry a covariance.
 BAND_CONFIDENCE = 0.95
 # The Bode plots span three decades below the Nyquist frequency.
@@ -53,33 +47,6 @@ def new_figure(width: float, height: float) -> Figure:
     fig = Figure(figsize=(width, height), layout="constrained")
     FigureCanvasAgg(fig)
     return fig
-
-
-def save_figure(fig: Figure, path: Path) -> bytes:
-    """Write ``fig`` whole or not at all (:func:`moli.data.atomic_files.write_atomic`); its bytes.
-
-    The format follows the suffix of ``path`` (PNG without one). A PNG is drawn once on the
-    figure's Agg canvas: ``savefig`` draws a figure with a layout engine twice, once to place
-    it and once to paint it, and its ticks cost the same in both.
-    """
-    trim_ticks(fig)
-    unlabelled_minor_ticks_as_lines(fig)
-    unplaced_empty_labels(fig)
-    plain_log_labels(fig)
-    buffer = io.BytesIO()
-    fmt = path.suffix[1:].lower() or "png"
-    if fmt == "png" and isinstance(fig.canvas, FigureCanvasAgg):
-        dpi = fig.dpi
-        fig.set_dpi(DPI)
-        try:
-            fig.canvas.draw()
-            imsave(buffer, fig.canvas.buffer_rgba(), format="png", origin="upper", dpi=DPI)
-        finally:
-            fig.set_dpi(dpi)
-    else:
-        fig.savefig(buffer, format=fmt, dpi=DPI)
-    write_atomic(path, buffer.getvalue())
-    return buffer.getvalue()
 
 
 def channel_grid(model: StateSpaceModel, ylabel: str, xlabel: str) -> tuple[Figure, np.ndarray]:

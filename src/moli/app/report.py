@@ -16,6 +16,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from . import figures
+from .figure_files import save_figure
 from .._version import __version__
 from ..data.atomic_files import write_atomic
 from ..data.display import report_name
@@ -285,7 +286,7 @@ def write_report(
                               "the cross-correlation with each input (positive lags: past inputs).")
     figures_html = {}
     for name, (fig, caption) in drawn.items():
-        png = figures.save_figure(fig, out / f"{name}.png")
+        png = save_figure(fig, out / f"{name}.png")
         figures_html[name] = (f"<figure>{embedded_image(png, name)}<figcaption class='note'>{caption}"
                               "</figcaption></figure>")
     residuals = "" if analysis is None else residual_section(analysis, figures_html.pop("residuals"))
