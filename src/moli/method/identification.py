@@ -27,8 +27,8 @@ from .prediction_error import prediction_error_refine
 from .refinement import MAX_RADIUS, refine_each
 from .refined_covariance import is_refined
 from .result import IdentificationResult
-from .order_rules import (clearly_better, generic_candidate, select_order, select_order_paired, select_order_refined,
-                          siblings)
+from .order_rules import (clearly_better, generic_candidate, generic_orders_below, select_order, select_order_paired,
+                          select_order_refined, siblings)
 from .search import PathStep, StructureSearch, greedy_path
 from .selection_check import warn_if_at_bound, warn_if_short_selection
 from .tuning import default_omega
@@ -290,6 +290,10 @@ def identify(
                         search, path[selected], lambda st: refined(st, (0.0,))[0], searched, scored, opts.x0, bound):
                     if candidate.mean_vaf >= path[selected].mean_vaf - opts.order_tolerance:
                         path[selected] = candidate
+                # and the generic lists of the orders below, where they fit as well (docs/method.md §12)
+                if not interrupted and opts.order is None:
+                    selected = generic_orders_below(search, path, selected, lambda st: refined(st, (0.0,))[0],
+                                                    searched, scored, opts.x0, bound, opts.order_tolerance)
             if loop == "direct":
                 # the noise model of the model so far starts the joint prediction-error estimate
                 stage = begin("noise model")

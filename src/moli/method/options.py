@@ -114,9 +114,10 @@ class IdentifyOptions:
         the order rule (docs/method.md §12); "guarded": the selected model's refinement,
         kept only where it raises the mean validation VAF; another list the greedy step
         compared at that order, where its refinement is better by a paired standard error;
-        and the order's generic list refined to its optimum, where its validation fit is
-        within ``order_tolerance`` of the model so far. True and False mean "selected"
-        and "none".
+        the order's generic list refined to its optimum, where its validation fit is
+        within ``order_tolerance`` of the model so far; then the generic list of each order
+        below, one order at a time, while it fits as well (not below a fixed ``order``).
+        True and False mean "selected" and "none".
     refine_iterations : int, default 10
         Most Levenberg-Marquardt steps of each refinement compared on validation (the
         generic list's then runs on to its optimum, docs/method.md §12).

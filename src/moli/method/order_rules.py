@@ -23,7 +23,8 @@ from .refinement import MAX_RADIUS, polish
 from .search import PathStep, StructureSearch
 from .structure import generic_indices, raised
 
-__all__ = ["select_order", "select_order_paired", "select_by_shares", "error_shares", "select_order_refined", "siblings", "generic_candidate", "clearly_better"]
+__all__ = ["select_order", "select_order_paired", "select_by_shares", "error_shares", "select_order_refined", "siblings", "generic_candidate",
+           "generic_orders_below", "clearly_better"]
 
 # Batches of the paired order rule: enough for a standard error, each long enough
 # (tens of samples on short records) to hold the errors' serial correlation.
@@ -221,20 +222,71 @@ def generic_candidate(search: StructureSearch, step: PathStep, refine_free: Call
     -------
     list of PathStep
     """
+    candidate = _refined_generic(search, step, refine_free, data, validation, x0, max_radius, own_list=False)
+    return [] if candidate is None else [candidate]
+
+
+def _refined_generic(search: StructureSearch, step: PathStep, refine_free: Callable[[PathStep], PathStep],
+                     data: IOData, validation: IOData, x0: str, max_radius: float, own_list: bool) -> PathStep | None:
+    """The generic list of ``step``'s order refined freely to its optimum, validated; None where it
+    cannot be fitted or is unstable, or where it is ``step``'s own list and not ``own_list``."""
     generic = generic_indices(step.order, len(step.indices))
-    if generic == tuple(step.indices) or not search.feasible(generic):
-        return []
+    if (generic == tuple(step.indices) and not own_list) or not search.feasible(generic):
+        return None
     with warnings.catch_warnings():
         # a list the path did not take: its least squares may be unstable, and it is optional
         warnings.simplefilter("ignore", RuntimeWarning)
         try:
-            candidate = refine_free(search.fit(generic))
+            candidate = refine_free(step if generic == tuple(step.indices) else search.fit(generic))
         except (MoliError, np.linalg.LinAlgError):
-            return []
+            return None
         model = polish(candidate.model, data, max_radius)
         if model is not candidate.model:
             candidate = replace(candidate, model=model, vaf=compare(model, validation, x0).vaf)
-    return [candidate] if candidate.stable else []
+    return candidate if candidate.stable else None
+
+
+def generic_orders_below(search: StructureSearch, path: list[PathStep], selected: int,
+                         refine_free: Callable[[PathStep], PathStep], data: IOData, validation: IOData,
+                         x0: str = "zero", max_radius: float = MAX_RADIUS, tolerance: float = 0.1) -> int:
+    """Position in ``path`` of the lowest order, counting down one order at a time from
+    ``selected``, whose generic list refined to its optimum fits ``validation`` within
+    ``tolerance`` points of ``path[selected]``; each order passed on the way has its
+    generic model put into ``path``.
+
+    The order rule judges each order by the least-squares model of the list the greedy step
+    took there. Under output noise that model is biased, and a thin list (the 2x2 plant of
+    docs/uncertainty.md §5 reached at its order 4 as (1, 3)) makes its order look worse than
+    the order can do: the rule then selects one or two orders above the plant's. The generic
+    list of each lower order, refined to its optimum (:func:`generic_candidate`), is that
+    order's consistent estimate; where it fits validation as well as the selected model, the
+    lower order is kept (docs/method.md §12).
+
+    Parameters
+    ----------
+    search : StructureSearch
+    path : list of PathStep
+        The greedy path, one step per order; changed in place.
+    selected : int
+        Position of the model so far.
+    refine_free, data, validation, x0, max_radius
+        As for :func:`generic_candidate`.
+    tolerance : float, default 0.1
+        Points of mean validation VAF, the order rule's.
+
+    Returns
+    -------
+    int
+    """
+    reference = path[selected].mean_vaf
+    while selected > 0 and path[selected - 1].order == path[selected].order - 1:
+        candidate = _refined_generic(search, path[selected - 1], refine_free, data, validation, x0, max_radius,
+                                     own_list=True)
+        if candidate is None or candidate.mean_vaf < reference - tolerance:
+            break
+        selected -= 1
+        path[selected] = candidate
+    return selected
 
 
 def clearly_better(step: PathStep, than: PathStep, validation: IOData, x0: str = "zero",
