@@ -288,7 +288,8 @@ class IdentifyOptions:
         is the default's, the noise model and its bands included. On the evaporator's paper
         split it takes 0.85-0.99 of the default's time (docs/performance.md, "The generic list"). Its mean validation VAF, paired over the 119 cases of the
         generalization benchmark, is 0.10, 0.15 and 0.03 points below the default's on seeds
-        0, 1 and 2, within the 0.3 points a preset may lose. Seed 0 first chose two steps
+        0, 1 and 2, within the 0.3 points a preset may lose (0.13 on seed 0 since the
+        guarded refinement tries the orders below). Seed 0 first chose two steps
         (0.77 of the time), which lost 0.36 points on seed 1; five steps was the next
         candidate of seed 0 (docs/accuracy.md, "The fast preset"). Smaller filter grids were
         cheaper but lost a DaISy record by tens of points; refining with the ridge of 1 alone
