@@ -4,7 +4,11 @@
 - :func:`select_order_paired`: the lowest order whose validation error is within one paired
   standard error of the best model's (docs/method.md §5);
 - :func:`select_order_refined`: the same test, each order judged by the best refinement of
-  the lists the greedy step compared there (docs/method.md §5b).
+  the lists the greedy step compared there (docs/method.md §5b);
+
+and what the guarded refinement tries once an order is selected (docs/method.md §12): the
+generic list of that order (:func:`generic_candidate`) and of the orders below it
+(:func:`generic_orders_below`), refined to their optimum.
 """
 
 from __future__ import annotations
