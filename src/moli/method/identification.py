@@ -291,7 +291,7 @@ def identify(
                     if candidate.mean_vaf >= path[selected].mean_vaf - opts.order_tolerance:
                         path[selected] = candidate
                 # and the generic lists of the orders below, where they fit as well (docs/method.md §12)
-                if not interrupted and opts.order is None:
+                if not interrupted and opts.order is None and opts.lower_orders:
                     selected = generic_orders_below(search, path, selected, lambda st: refined(st, (0.0,))[0],
                                                     searched, scored, opts.x0, bound, opts.order_tolerance)
             if loop == "direct":

@@ -30,10 +30,10 @@ REFINE_CHOICES = ("none", "selected", "path", "guarded")
 # evaporator windows; docs/accuracy.md shows what they cost elsewhere).
 EVAPORATOR_CHOICES = {"order_tolerance": 1.0, "filter_grid": "paper", "refine": "none", "refine_ridge": 1.0}
 ORDER_RULES = ("tolerance", "paired", "refined")
-# The fast preset's one change: at most five Levenberg-Marquardt steps per refinement, the
-# cheapest search within 0.3 points of the default on every seed of the generalization
-# benchmark (docs/accuracy.md, "The fast preset").
-FAST_CHOICES = {"refine_iterations": 5}
+# The fast preset: at most five Levenberg-Marquardt steps per refinement, the cheapest
+# search within 0.3 points of the default on every seed of the generalization benchmark,
+# and no orders below the selected one (docs/accuracy.md, "The fast preset").
+FAST_CHOICES = {"refine_iterations": 5, "lower_orders": False}
 PRESETS = ("default", "fast", "improved", "bounded", "paper")
 TIMES = ("discrete", "continuous")
 INPUT_HOLDS = ("zoh", "foh")
@@ -116,8 +116,12 @@ class IdentifyOptions:
         compared at that order, where its refinement is better by a paired standard error;
         the order's generic list refined to its optimum, where its validation fit is
         within ``order_tolerance`` of the model so far; then the generic list of each order
-        below, one order at a time, while it fits as well (not below a fixed ``order``).
-        True and False mean "selected" and "none".
+        below, one order at a time, while it fits as well (``lower_orders``; not below a
+        fixed ``order``). True and False mean "selected" and "none".
+    lower_orders : bool, default True
+        With "guarded": also try the generic list of each order below the selected one,
+        refined to its optimum, while its validation fit is within ``order_tolerance`` of
+        the model so far (docs/method.md §12, "The orders below").
     refine_iterations : int, default 10
         Most Levenberg-Marquardt steps of each refinement compared on validation (the
         generic list's then runs on to its optimum, docs/method.md §12).
@@ -200,6 +204,7 @@ class IdentifyOptions:
     criterion_x0: str = "zero"
     trend_degree: int = 2
     refine: str = "guarded"
+    lower_orders: bool = True
     refine_iterations: int = 10
     refine_ridge: float | tuple[float, ...] = (0.0, 1.0)
     center: bool = True
@@ -242,6 +247,7 @@ class IdentifyOptions:
             "criterion_x0": check_choice("criterion_x0", self.criterion_x0, X0_CHOICES),
             "trend_degree": check_integer("trend_degree", self.trend_degree, 0, MAX_TREND_DEGREE),
             "refine": check_choice("refine", refine, REFINE_CHOICES),
+            "lower_orders": check_flag("lower_orders", self.lower_orders),
             "refine_iterations": check_integer("refine_iterations", self.refine_iterations, 1),
             "refine_ridge": check_ridges(self.refine_ridge),
             "center": check_flag("center", self.center),
@@ -284,14 +290,15 @@ class IdentifyOptions:
         """The default search made cheaper at a small, measured cost in fit.
 
         Each refinement of the guarded refinement stops after five Levenberg-Marquardt steps
-        instead of ten (the generic list's still runs on to its optimum); every other choice
-        is the default's, the noise model and its bands included. On the evaporator's paper
-        split it takes 0.85-0.99 of the default's time (docs/performance.md, "The generic list"). Its mean validation VAF, paired over the 119 cases of the
-        generalization benchmark, is 0.10, 0.15 and 0.03 points below the default's on seeds
-        0, 1 and 2, within the 0.3 points a preset may lose (0.13 on seed 0 since the
-        guarded refinement tries the orders below). Seed 0 first chose two steps
-        (0.77 of the time), which lost 0.36 points on seed 1; five steps was the next
-        candidate of seed 0 (docs/accuracy.md, "The fast preset"). Smaller filter grids were
+        instead of ten (the generic list of the selected order still runs on to its optimum),
+        and the orders below the selected one are not tried (``lower_orders=False``); every
+        other choice is the default's, the noise model and its bands included. Its mean
+        validation VAF, paired over the 119 cases of the generalization benchmark, is 0.04,
+        0.28 and 0.10 points below the default's on seeds 0, 1 and 2, within the 0.3 points a
+        preset may lose, at 0.68 of the default's seconds per case on seed 0 (docs/accuracy.md,
+        "The fast preset"; with the orders below it lost 0.13 on seed 0 at 0.94 of the time).
+        Five steps: seed 0 first chose two (0.77 of the time), which lost 0.36 points on seed
+        1; five was the next candidate of seed 0. Smaller filter grids were
         cheaper but lost a DaISy record by tens of points; refining with the ridge of 1 alone
         left the gain bands too narrow (with the ridge's penalty then in their covariance).
 
@@ -303,7 +310,8 @@ class IdentifyOptions:
         Returns
         -------
         IdentifyOptions
-            The default options with ``refine_iterations=5``, then ``changes``.
+            The default options with ``refine_iterations=5`` and ``lower_orders=False``,
+            then ``changes``.
 
         Examples
         --------
