@@ -261,7 +261,10 @@ def test_generic_candidate_only_where_the_selected_list_is_not_generic():
         return dataclasses.replace(step, model=model, vaf=moli.compare(model, val).vaf)
 
     # two outputs, order 3: the generic list is (2, 1)
-    assert generic_candidate(search, search.fit((2, 1)), free, est, val) == []
-    (candidate,) = generic_candidate(search, search.fit((1, 2)), free, est, val)
+    assert generic_candidate(search, search.fit((2, 1)), free, est, val) is None
+    candidate = generic_candidate(search, search.fit((1, 2)), free, est, val)
     # three steps of refine_free, then at least one of polish's
     assert candidate.indices == (2, 1) and candidate.model.info["refine_iterations"] > 3
+    # asked to (the orders below), the step's own generic list is refined from its own model
+    own = generic_candidate(search, search.fit((2, 1)), free, est, val, own_list=True)
+    assert own.indices == (2, 1) and own.model.info["refine_iterations"] > 3

@@ -285,15 +285,17 @@ def identify(
                         if clearly_better(candidate, path[selected], scored, opts.x0):
                             path[selected] = candidate
                 # the generic list spans almost every system of the order: kept where it fits
-                # validation within the order tolerance (docs/method.md §12)
-                for candidate in [] if interrupted else generic_candidate(
-                        search, path[selected], lambda st: refined(st, (0.0,))[0], searched, scored, opts.x0, bound):
-                    if candidate.mean_vaf >= path[selected].mean_vaf - opts.order_tolerance:
-                        path[selected] = candidate
-                # and the generic lists of the orders below, where they fit as well (docs/method.md §12)
+                # validation within the order tolerance, then those of the orders below while
+                # they fit as well (docs/method.md §12)
+                def free(st: PathStep) -> PathStep:
+                    return refined(st, (0.0,))[0]
+                candidate = None if interrupted else generic_candidate(search, path[selected], free, searched,
+                                                                       scored, opts.x0, bound)
+                if candidate is not None and candidate.mean_vaf >= path[selected].mean_vaf - opts.order_tolerance:
+                    path[selected] = candidate
                 if not interrupted and opts.order is None and opts.lower_orders:
-                    selected = generic_orders_below(search, path, selected, lambda st: refined(st, (0.0,))[0],
-                                                    searched, scored, opts.x0, bound, opts.order_tolerance)
+                    selected = generic_orders_below(search, path, selected, free, searched, scored, opts.x0, bound,
+                                                    opts.order_tolerance)
             if loop == "direct":
                 # the noise model of the model so far starts the joint prediction-error estimate
                 stage = begin("noise model")

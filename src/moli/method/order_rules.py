@@ -189,10 +189,11 @@ def siblings(search: StructureSearch, path: list[PathStep], selected: int) -> li
 
 
 def generic_candidate(search: StructureSearch, step: PathStep, refine_free: Callable[[PathStep], PathStep],
-                      data: IOData, validation: IOData, x0: str = "zero",
-                      max_radius: float = MAX_RADIUS) -> list[PathStep]:
-    """The generic list of ``step``'s order, refined freely to its optimum and validated,
-    where ``step`` has another list; else (or where it cannot be fitted, or is unstable) nothing.
+                      data: IOData, validation: IOData, x0: str = "zero", max_radius: float = MAX_RADIUS,
+                      own_list: bool = False) -> PathStep | None:
+    """The generic list of ``step``'s order, refined freely to its optimum and validated; None
+    where it cannot be fitted or is unstable, or where it is ``step``'s own list and not
+    ``own_list`` (``step``'s refinement is then the one compared already).
 
     The greedy step reaches an order through the list whose least-squares model simulates
     best, and under output noise that is often a thinner family than the plant needs (the
@@ -210,7 +211,7 @@ def generic_candidate(search: StructureSearch, step: PathStep, refine_free: Call
     search : StructureSearch
         The search of the path (fits, tunes and validates the list).
     step : PathStep
-        The model so far at the selected order.
+        The path's model at the order.
     refine_free : callable
         ``refine_free(step)``: the free refinement of a step, validated.
     data : IOData
@@ -221,27 +222,22 @@ def generic_candidate(search: StructureSearch, step: PathStep, refine_free: Call
         Initial state of the validation simulations.
     max_radius : float
         Pole radius bound of the refinement's steps.
+    own_list : bool, default False
+        Where ``step``'s list is the generic one: refine ``step`` itself to its optimum.
 
     Returns
     -------
-    list of PathStep
+    PathStep or None
     """
-    candidate = _refined_generic(search, step, refine_free, data, validation, x0, max_radius, own_list=False)
-    return [] if candidate is None else [candidate]
-
-
-def _refined_generic(search: StructureSearch, step: PathStep, refine_free: Callable[[PathStep], PathStep],
-                     data: IOData, validation: IOData, x0: str, max_radius: float, own_list: bool) -> PathStep | None:
-    """The generic list of ``step``'s order refined freely to its optimum, validated; None where it
-    cannot be fitted or is unstable, or where it is ``step``'s own list and not ``own_list``."""
     generic = generic_indices(step.order, len(step.indices))
-    if (generic == tuple(step.indices) and not own_list) or not search.feasible(generic):
+    own = generic == tuple(step.indices)
+    if (own and not own_list) or not search.feasible(generic):
         return None
     with warnings.catch_warnings():
         # a list the path did not take: its least squares may be unstable, and it is optional
         warnings.simplefilter("ignore", RuntimeWarning)
         try:
-            candidate = refine_free(step if generic == tuple(step.indices) else search.fit(generic))
+            candidate = refine_free(step if own else search.fit(generic))
         except (MoliError, np.linalg.LinAlgError):
             return None
         model = polish(candidate.model, data, max_radius)
@@ -284,8 +280,8 @@ def generic_orders_below(search: StructureSearch, path: list[PathStep], selected
     """
     reference = path[selected].mean_vaf
     while selected > 0 and path[selected - 1].order == path[selected].order - 1:
-        candidate = _refined_generic(search, path[selected - 1], refine_free, data, validation, x0, max_radius,
-                                     own_list=True)
+        candidate = generic_candidate(search, path[selected - 1], refine_free, data, validation, x0, max_radius,
+                                      own_list=True)
         if candidate is None or candidate.mean_vaf < reference - tolerance:
             break
         selected -= 1

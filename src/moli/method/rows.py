@@ -13,7 +13,7 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import DataError
-from .structure import Indices, parameter_counts
+from .structure import Indices, generic_indices, parameter_counts
 
 __all__ = ["regression_rows", "row_count", "row_breaks", "samples_needed", "largest_order", "check_sample_count",
            "check_regression_rows"]
@@ -50,11 +50,11 @@ def samples_needed(indices: Indices, m: int, feedthrough: bool = False) -> int:
 
 
 def largest_order(N: int, p: int, m: int, feedthrough: bool = False) -> int:
-    """The largest order whose cheapest list (the balanced one, longer indices first) ``N``
-    samples can estimate; ``p - 1`` when none can."""
+    """The largest order whose cheapest list (the balanced one, longer indices first: the
+    generic list, :func:`moli.method.structure.generic_indices`) ``N`` samples can estimate;
+    ``p - 1`` when none can."""
     def fits(n: int) -> bool:
-        q, r = divmod(n, p)
-        return samples_needed((q + 1,) * r + (q,) * (p - r), m, feedthrough) <= N
+        return samples_needed(generic_indices(n, p), m, feedthrough) <= N
 
     # the samples needed grow with the order: double a bound past the answer, then bisect
     # (a long record reaches orders in the hundred thousands: stepping one by one took seconds)
