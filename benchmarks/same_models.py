@@ -38,8 +38,9 @@ MATRICES = ("A", "B", "C", "D", "K")
 TOLERANCE = 1e-9
 # Frequencies of the compared frequency response, log-spaced from 1e-3 of Nyquist to Nyquist
 RESPONSE_POINTS = 32
-PRESETS = {"default": moli.IdentifyOptions.default, "improved": moli.IdentifyOptions.improved,
-           "paper": moli.IdentifyOptions.paper, "bounded": moli.IdentifyOptions.bounded}
+PRESETS = {"default": moli.IdentifyOptions.default, "fast": moli.IdentifyOptions.fast,
+           "improved": moli.IdentifyOptions.improved, "paper": moli.IdentifyOptions.paper,
+           "bounded": moli.IdentifyOptions.bounded}
 
 
 def arrays(result: moli.IdentifyResult) -> dict[str, np.ndarray]:

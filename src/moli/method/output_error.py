@@ -115,28 +115,30 @@ class OutputErrorProblem:
         augmented = np.empty((count + 1, N, p)).transpose(1, 2, 0)
         if self.fit_x0:
             augmented[:, :, count - self.x0_size : count] = 0.0   # a segment's x0 moves that segment alone
-        # the sensitivities restart with the state at each segment (its x0 is a parameter of its own)
+        # the sensitivities restart with the state at each segment (its x0 is a parameter of its own);
+        # each piece is weighted as it is written, not the record-long matrix afterwards
+        w = self.weights
         for segment, (a, b) in enumerate(self.bounds):
             rows = augmented[a:b]
             for c, S_c in state_responses(A, C, signals[a:b]):
-                if c < m:                               # B[a, c]: input u_c into state a
-                    rows[:, :, n * p + c : at_g : m] = S_c
-                    continue
                 j = c - m
-                rows[:, :, j : n * p : p] = S_c         # D[a, j]: signal yhat_j into state a
                 for q, (i, jj) in enumerate(pairs):
                     if jj == j:                         # dC x = H e_i (C x)_j, and through D
                         direct = np.outer(yx[a:b, j], H[:, i])
-                        rows[:, :, at_g + q] = direct + np.einsum("tpa,a->tp", S_c, form.D @ H[:, i])
+                        rows[:, :, at_g + q] = (direct + np.einsum("tpa,a->tp", S_c, form.D @ H[:, i])) * w
+                S_c *= w[:, None]                       # in place: each signal's responses are its own array
+                if c < m:                               # B[a, c]: input u_c into state a
+                    rows[:, :, n * p + c : at_g : m] = S_c
+                else:                                   # D[a, j]: signal yhat_j into state a
+                    rows[:, :, j : n * p : p] = S_c
             if self.fit_x0:
                 at_x0 = count - self.x0_size + segment * n
-                rows[:, :, at_x0 : at_x0 + n] = free_response(A, C, b - a)
-        if self.feedthrough:                       # F[i, j]: u_j straight to y_i
-            eye, through = np.eye(p), self.u[:, : self.through]
-            for i in range(p):                     # one output at a time: N p m values, not N p p m
-                augmented[:, i, at_f : at_f + p * self.through] = (
-                    eye[i, None, :, None] * through[:, None, :]).reshape(N, p * self.through)
-        augmented[:, :, :count] *= self.weights[None, :, None]
+                rows[:, :, at_x0 : at_x0 + n] = free_response(A, C, b - a) * w[:, None]
+        if self.feedthrough:                       # F[i, j]: u_j straight to y_i, to no other output
+            block = augmented[:, :, at_f : at_f + p * self.through]
+            block[...] = 0.0
+            for i in range(p):
+                block[:, i, i * self.through : (i + 1) * self.through] = self.u[:, : self.through] * w[i]
         augmented = augmented.reshape(N * p, count + 1)
         augmented[:, count] = residual
         return augmented
