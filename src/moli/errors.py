@@ -85,9 +85,10 @@ class DataQualityWarning(UserWarning):
 
 
 class OrderBoundWarning(UserWarning):
-    """The selected order is the largest the structure search was allowed to reach, and it
-    fits the validation data clearly better (two paired standard errors) than every lower
-    order: a higher order may fit better still."""
+    """The selected order is the largest the structure search was allowed to reach, it fits
+    the validation data clearly better (two paired standard errors) than every lower order,
+    and the search's next order fits clearly better than the bound's: a higher order may fit
+    better still."""
 
 
 class ShortValidationWarning(UserWarning):

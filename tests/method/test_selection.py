@@ -186,3 +186,27 @@ def test_a_bound_order_warns_only_where_it_clearly_beats_the_lower_ones():
         # below the bound there is nothing to say either
         warn_if_at_bound([_scored_step(first_order, 1, validation), _scored_step(true, 2, validation)], 1, 3,
                          validation)
+
+
+def _noisy_record(A, B, C, seed, N=600, noise=0.1):
+    rng = np.random.default_rng(seed)
+    u = rng.standard_normal((N, 1))
+    y = moli.StateSpaceModel(A, B, C).simulate(u)
+    return moli.IOData(y + noise * y.std() * rng.standard_normal(y.shape), u)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_bound_order_warns_only_where_the_next_order_fits_clearly_better(seed):
+    # at nmax = 1 a SISO path has no lower order to beat, so the lower orders say nothing:
+    # the path's next step (order 2) is what says whether a higher order fits better
+    def bound_warned(A, B, C):
+        est, val = _noisy_record(A, B, C, seed).split(400)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            moli.identify(est, val, nmax=1)
+        return any(issubclass(w.category, moli.OrderBoundWarning) for w in caught)
+
+    # a first-order plant: order 2 fits no better, and nothing is said (it always was before)
+    assert not bound_warned([[0.8]], [[1.0]], [[0.5]])
+    # the lightly damped second-order plant: order 2 fits far better, and the run says so
+    assert bound_warned([[1.6, -0.8], [1.0, 0.0]], [[1.0], [0.0]], [[0.1, 0.05]])

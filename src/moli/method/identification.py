@@ -329,7 +329,7 @@ def identify(
     model.warn_if_unstable(stacklevel=2)
     # a fixed order is the caller's choice, not the search running into its bound
     if not interrupted and path[selected].order != opts.order:
-        warn_if_at_bound(path, selected, nmax, validation, opts.x0)
+        warn_if_at_bound(path, selected, nmax, validation, opts.x0, beyond=(search, unrefined[-1]))
     warn_if_short_selection(path, scored.N, scored.m, stacklevel=2)
     return IdentificationResult(
         model=model, path=path, selected_index=selected, estimation=estimation,

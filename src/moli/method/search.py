@@ -19,7 +19,7 @@ from .scoring import FilterScorer
 from .tuning import tune_filters
 from ..validation.comparison import compare
 
-__all__ = ["ScoredStep", "PathStep", "StructureSearch", "greedy_path", "exhaustive"]
+__all__ = ["ScoredStep", "PathStep", "StructureSearch", "greedy_path", "next_step", "exhaustive"]
 
 
 class ScoredStep:
@@ -242,14 +242,23 @@ def greedy_path(
     if progress:
         progress(path[-1])
     while path[-1].order < nmax:
-        candidates = [c for c in raised(path[-1].indices) if search.feasible(c)]
-        if not candidates:
+        step = next_step(search, path[-1])
+        if step is None:
             break
-        steps = search.fit_many(candidates, validate=False)
-        path.append(search.fit(min(steps, key=lambda st: st.J).indices))
+        path.append(step)
         if progress:
             progress(path[-1])
     return path
+
+
+def next_step(search: StructureSearch, step: PathStep) -> PathStep | None:
+    """The greedy step from ``step``: of the lists one index above it, the one of lowest J,
+    validated; None where the record allows none of them."""
+    candidates = [c for c in raised(step.indices) if search.feasible(c)]
+    if not candidates:
+        return None
+    steps = search.fit_many(candidates, validate=False)
+    return search.fit(min(steps, key=lambda st: st.J).indices)
 
 
 def exhaustive(search: StructureSearch, order: int) -> list[PathStep]:

@@ -16,7 +16,7 @@ from ..data.iodata import IOData
 from ..errors import OrderBoundWarning, ShortValidationWarning
 from .order_rules import clearly_better
 from .rows import parameter_counts
-from .search import PathStep
+from .search import PathStep, StructureSearch, next_step
 
 __all__ = ["SAMPLES_PER_PARAMETER", "BOUND_Z", "selection_samples_needed", "warn_if_short_selection",
            "warn_if_at_bound"]
@@ -87,14 +87,17 @@ def warn_if_short_selection(path: Sequence[PathStep], validation_samples: int, m
 
 
 def warn_if_at_bound(path: Sequence[PathStep], selected: int, nmax: int, validation: IOData, x0: str = "zero",
-                     stacklevel: int = 2) -> None:
+                     beyond: tuple[StructureSearch, PathStep] | None = None, stacklevel: int = 2) -> None:
     """Issue an :class:`OrderBoundWarning` when the selected order is the search's bound
     ``nmax`` and beats the best lower order of ``path`` by more than :data:`BOUND_Z` paired
-    standard errors on ``validation`` (:func:`moli.method.order_rules.clearly_better`).
+    standard errors on ``validation`` (:func:`moli.method.order_rules.clearly_better`), and,
+    with ``beyond``, the path's step one order above the bound beats its step at the bound
+    by as much.
 
     A bound order that wins by less than the validation record's chance says nothing about
-    higher ones; one that clearly wins does (under strong output noise that is often the
-    least-squares path buying back its bias with each state, docs/accuracy.md).
+    higher ones; one that clearly wins may (under strong output noise that is often the
+    least-squares path buying back its bias with each state, docs/accuracy.md), and the
+    path's next step says whether it goes on doing so.
 
     Parameters
     ----------
@@ -107,6 +110,11 @@ def warn_if_at_bound(path: Sequence[PathStep], selected: int, nmax: int, validat
         The record the path's VAFs were computed on.
     x0 : {"zero", "estimate"}
         Initial state of the validation simulations.
+    beyond : (StructureSearch, PathStep), optional
+        The search and the path's least-squares step at the bound: the greedy step from it
+        (:func:`moli.method.search.next_step`) is fitted only where the rest would warn, and
+        where it does not clearly beat that step nothing is said (where the record allows no
+        higher list, the warning stands on the lower orders alone).
     stacklevel : int
         As for :func:`warnings.warn`, counted from the caller.
     """
@@ -115,9 +123,19 @@ def warn_if_at_bound(path: Sequence[PathStep], selected: int, nmax: int, validat
     if chosen.order < nmax or (lower and not clearly_better(chosen, max(lower, key=lambda step: step.mean_vaf),
                                                               validation, x0, BOUND_Z)):
         return
+    above = None
+    if beyond is not None:
+        search, last = beyond
+        with warnings.catch_warnings():
+            # a list above the path: its least squares may be unstable, as on the path itself
+            warnings.simplefilter("ignore", RuntimeWarning)
+            above = next_step(search, last)
+        if above is not None and not clearly_better(above, last, validation, x0, BOUND_Z):
+            return
+    still = "" if above is None else f", and the path's order {above.order} fits it clearly better still"
     warnings.warn(
         f"the selected order {chosen.order} is the search's bound nmax = {nmax}, and it fits the "
-        f"validation data clearly better than every lower order: a higher order may fit better; "
+        f"validation data clearly better than every lower order{still}: a higher order may fit better; "
         f"raise it with nmax=... (moli fit --nmax)",
         OrderBoundWarning, stacklevel=stacklevel + 1,
     )
