@@ -210,3 +210,17 @@ def test_a_bound_order_warns_only_where_the_next_order_fits_clearly_better(seed)
     assert not bound_warned([[0.8]], [[1.0]], [[0.5]])
     # the lightly damped second-order plant: order 2 fits far better, and the run says so
     assert bound_warned([[1.6, -0.8], [1.0, 0.0]], [[1.0], [0.0]], [[0.1, 0.05]])
+
+
+@pytest.mark.parametrize("seed", range(2))
+def test_the_next_order_is_judged_on_the_record_it_was_fitted_on(seed):
+    # with an input delay the search fits and scores its lists on the inputs shifted by it;
+    # the bound's next order must be judged there too (on the unshifted record the two
+    # least-squares models are simulated out of step with the data, and nothing was said)
+    est, val = _noisy_record([[1.6, -0.8], [1.0, 0.0]], [[1.0], [0.0]], [[0.1, 0.05]], seed).split(400)
+    shift = 4
+    # the inputs as logged 4 samples before they reach the plant
+    delayed_est = moli.IOData(est.y[:-shift], est.u[shift:])
+    delayed_val = moli.IOData(val.y[:-shift], val.u[shift:])
+    with pytest.warns(moli.OrderBoundWarning, match="order 2 fits it clearly better still"):
+        moli.identify(delayed_est, delayed_val, nmax=1, delays=shift)

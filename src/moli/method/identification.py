@@ -237,7 +237,7 @@ def identify(
             phase(name)
         return name
 
-    unrefined = list(path)
+    unrefined, at_bound = list(path), replace(path[-1])    # at_bound: the path's own last least squares
     # Ctrl-C after the path keeps the best complete model so far (moli.method.interruption)
     phases = post_path_phases(opts, long_record=searched is not fitted, direct=loop == "direct")
     stage, skipped = phases[0], ()
@@ -329,7 +329,7 @@ def identify(
     model.warn_if_unstable(stacklevel=2)
     # a fixed order is the caller's choice, not the search running into its bound
     if not interrupted and path[selected].order != opts.order:
-        warn_if_at_bound(path, selected, nmax, validation, opts.x0, beyond=(search, unrefined[-1]))
+        warn_if_at_bound(path, selected, nmax, validation, opts.x0, beyond=None if skipped else (search, at_bound))
     warn_if_short_selection(path, scored.N, scored.m, stacklevel=2)
     return IdentificationResult(
         model=model, path=path, selected_index=selected, estimation=estimation,

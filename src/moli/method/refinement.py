@@ -114,7 +114,7 @@ def refine(
         Stop when a step lowers ``V`` by less than this fraction.
     damping : float, default 1e-3
         Levenberg-Marquardt's first damping, relative to each column's squared norm
-        (between 1e-9 and 1e8); a start already refined is continued from 1e-9.
+        (between 1e-9 and 1e8); :func:`polish` continues a refined model from 1e-9.
 
     Returns
     -------
@@ -330,9 +330,10 @@ def polish(model: StateSpaceModel, data: IOData, max_radius: float = MAX_RADIUS)
             and "refine_method" not in info):
         return model
     N, p = data.y.shape
-    # it continues a refinement whose steps already ended near the damping floor: restarted
-    # at a least-squares start's damping, its first steps were short enough to meet the stop
-    # (an order-7 polish of a 3x3 record ended after two steps, 1.4 sample variances from its minimum)
+    # it continues a refinement whose steps ended at or near the damping floor: restarted at a
+    # least-squares start's damping, its first steps were short enough to meet the stop (an
+    # order-6 list of a 3x3 record, 12.7 sample variances above its minimum, stopped after one
+    # step, 12.6 above it)
     result = refine(model, data, iterations=POLISH_ITERATIONS, max_radius=max_radius,
                     tolerance=POLISH_SHARE / (N * p), damping=DAMPING_FLOOR)
     if result.iterations == 0:

@@ -111,10 +111,12 @@ def warn_if_at_bound(path: Sequence[PathStep], selected: int, nmax: int, validat
     x0 : {"zero", "estimate"}
         Initial state of the validation simulations.
     beyond : (StructureSearch, PathStep), optional
-        The search and the path's least-squares step at the bound: the greedy step from it
-        (:func:`moli.method.search.next_step`) is fitted only where the rest would warn, and
-        where it does not clearly beat that step nothing is said (where the record allows no
-        higher list, the warning stands on the lower orders alone).
+        The search and the path's least-squares step at the bound, as the search fitted it: the
+        greedy step from it (:func:`moli.method.search.next_step`) is fitted only where the rest
+        would warn, both are scored on the search's own validation record (with its inputs
+        shifted by any delays, as they were fitted), and where the step does not clearly beat
+        the bound's nothing is said (where the record allows no higher list, the warning stands
+        on the lower orders alone).
     stacklevel : int
         As for :func:`warnings.warn`, counted from the caller.
     """
@@ -130,11 +132,11 @@ def warn_if_at_bound(path: Sequence[PathStep], selected: int, nmax: int, validat
             # a list above the path: its least squares may be unstable, as on the path itself
             warnings.simplefilter("ignore", RuntimeWarning)
             above = next_step(search, last)
-        if above is not None and not clearly_better(above, last, validation, x0, BOUND_Z):
+        if above is not None and not clearly_better(above, last, search.validation, x0, BOUND_Z):
             return
-    still = "" if above is None else f", and the path's order {above.order} fits it clearly better still"
+    still = "" if above is None else f"; the path's order {above.order} fits it clearly better still"
     warnings.warn(
-        f"the selected order {chosen.order} is the search's bound nmax = {nmax}, and it fits the "
+        f"the selected order {chosen.order} is the search's bound nmax = {nmax} and fits the "
         f"validation data clearly better than every lower order{still}: a higher order may fit better; "
         f"raise it with nmax=... (moli fit --nmax)",
         OrderBoundWarning, stacklevel=stacklevel + 1,
