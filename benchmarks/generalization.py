@@ -83,6 +83,7 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "default_wider": {"filter_grid": "wider"},
     "default_widez": {"filter_grid": "widez"},
     "default_no_refine": {"refine": "none"},
+    "default_early_stop": {"polish_selected": False},
     "default_refine_always": {"refine": "selected"},
     "default_refine_path": {"refine": "path"},
     "default_gcv": {"regularization": "gcv"},

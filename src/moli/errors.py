@@ -87,8 +87,9 @@ class DataQualityWarning(UserWarning):
 class OrderBoundWarning(UserWarning):
     """The selected order is the largest the structure search was allowed to reach, it fits
     the validation data clearly better (two paired standard errors) than every lower order,
-    and the search's next order, where the record allows one, fits clearly better than the
-    bound's: a higher order may fit better still."""
+    and the search's next order, where the record allows one, fits clearly better than both
+    the bound's least squares and the model returned (refined as that model was): a higher
+    order may fit better still."""
 
 
 class ShortValidationWarning(UserWarning):

@@ -34,6 +34,7 @@ BAD = {
     "refine_ridge": ("1", ()),
     "center": ("yes", None),
     "lower_orders": ("no", None),
+    "polish_selected": ("yes", None),
     "x0": (None, "random"),
     "noise_model": ("yes", None),
     "regularization": (1, "lasso"),
@@ -103,11 +104,12 @@ def test_presets_show_what_they_set():
 
 def test_the_fast_preset_is_the_default_with_a_shorter_refinement_and_no_orders_below():
     fast = IdentifyOptions.preset("fast")
-    assert fast == IdentifyOptions.fast() == IdentifyOptions(refine_iterations=5, lower_orders=False)
-    # two choices differ from the default; the refinement stays guarded and the result
+    assert fast == IdentifyOptions.fast() == IdentifyOptions(refine_iterations=5, lower_orders=False,
+                                                             polish_selected=False)
+    # three choices differ from the default; the refinement stays guarded and the result
     # keeps its noise model (and so its bands and predictions)
     changed = {k for k, v in fast.to_dict().items() if IdentifyOptions().to_dict()[k] != v}
-    assert changed == {"refine_iterations", "lower_orders"}
+    assert changed == {"refine_iterations", "lower_orders", "polish_selected"}
     assert (fast.refine, fast.noise_model, fast.filter_grid) == ("guarded", True, "wide")
     # a change given beside the preset wins over the preset's own value
     assert IdentifyOptions.fast(refine_iterations=7, nmax=6).refine_iterations == 7

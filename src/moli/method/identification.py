@@ -27,8 +27,8 @@ from .prediction_error import prediction_error_refine
 from .refinement import MAX_RADIUS, refine_each
 from .refined_covariance import is_refined
 from .result import IdentificationResult
-from .order_rules import (clearly_better, generic_candidate, generic_orders_below, select_order, select_order_paired,
-                          select_order_refined, siblings)
+from .order_rules import (clearly_better, generic_candidate, generic_orders_below, polished_if_clearly_better, refined_as,
+                          select_order, select_order_paired, select_order_refined, siblings)
 from .search import PathStep, StructureSearch, greedy_path
 from .selection_check import warn_if_at_bound, warn_if_short_selection
 from .tuning import default_omega
@@ -108,10 +108,9 @@ def identify(
     opts = _options(options, overrides)
     if not isinstance(data, IOData):
         raise DataError(f"data must be an IOData, got {type(data).__name__}")
-    if progress is not None and not callable(progress):
-        raise OptionError(f"progress must be a callable taking a PathStep, got {type(progress).__name__}")
-    if phase is not None and not callable(phase):
-        raise OptionError(f"phase must be a callable taking a phase's name, got {type(phase).__name__}")
+    for name, hook, argument in (("progress", progress, "a PathStep"), ("phase", phase, "a phase's name")):
+        if hook is not None and not callable(hook):
+            raise OptionError(f"{name} must be a callable taking {argument}, got {type(hook).__name__}")
     check_scales(data, validation)
     if validation is None:
         if data.N * HOLDOUT_FRACTION < 1:
@@ -232,6 +231,9 @@ def identify(
                 done[id(step.model), ridge] = replace(step, model=model, vaf=vaf, seconds=seconds)
         return [done[id(step.model), r] for r in chosen]
 
+    def free(step: PathStep) -> PathStep:
+        return refined(step, (0.0,))[0]
+
     def begin(name: str) -> str:
         if phase:
             phase(name)
@@ -287,8 +289,6 @@ def identify(
                 # the generic list spans almost every system of the order: kept where it fits
                 # validation within the order tolerance, then those of the orders below while
                 # they fit as well (docs/method.md §12)
-                def free(st: PathStep) -> PathStep:
-                    return refined(st, (0.0,))[0]
                 candidate = None if interrupted else generic_candidate(search, path[selected], free, searched,
                                                                        scored, opts.x0, bound)
                 if candidate is not None and candidate.mean_vaf >= path[selected].mean_vaf - opts.order_tolerance:
@@ -296,6 +296,8 @@ def identify(
                 if not interrupted and opts.order is None and opts.lower_orders:
                     selected = generic_orders_below(search, path, selected, free, searched, scored, opts.x0, bound,
                                                     opts.order_tolerance)
+                if not interrupted and opts.polish_selected:
+                    path[selected] = polished_if_clearly_better(path[selected], searched, scored, opts.x0, bound)
             if loop == "direct":
                 # the noise model of the model so far starts the joint prediction-error estimate
                 stage = begin("noise model")
@@ -320,6 +322,7 @@ def identify(
             skipped = tuple(phases[phases.index(stage):])
     if skipped:
         path[selected].model.info["interrupted"] = {"skipped": list(skipped)}
+    returned = replace(path[selected])      # as the search fitted it, for the bound warning's next order
     if any(delays):
         for step in path:
             step.model = step.model.with_input_delays(delays)
@@ -329,7 +332,8 @@ def identify(
     model.warn_if_unstable(stacklevel=2)
     # a fixed order is the caller's choice, not the search running into its bound
     if not interrupted and path[selected].order != opts.order:
-        warn_if_at_bound(path, selected, nmax, validation, opts.x0, beyond=None if skipped else (search, at_bound))
+        like = None if opts.refine == "none" else refined_as(returned.model, free, searched, scored, opts.x0, bound)
+        warn_if_at_bound(path, selected, nmax, validation, opts.x0, beyond=None if skipped else (search, at_bound, returned, like))
     warn_if_short_selection(path, scored.N, scored.m, stacklevel=2)
     return IdentificationResult(
         model=model, path=path, selected_index=selected, estimation=estimation,

@@ -32,8 +32,9 @@ EVAPORATOR_CHOICES = {"order_tolerance": 1.0, "filter_grid": "paper", "refine": 
 ORDER_RULES = ("tolerance", "paired", "refined")
 # The fast preset: at most five Levenberg-Marquardt steps per refinement, the cheapest
 # search within 0.3 points of the default on every seed of the generalization benchmark,
-# and no orders below the selected one (docs/accuracy.md, "The fast preset").
-FAST_CHOICES = {"refine_iterations": 5, "lower_orders": False}
+# no orders below the selected one, and the selected model's early stop kept
+# (docs/accuracy.md, "The fast preset").
+FAST_CHOICES = {"refine_iterations": 5, "lower_orders": False, "polish_selected": False}
 PRESETS = ("default", "fast", "improved", "bounded", "paper")
 TIMES = ("discrete", "continuous")
 INPUT_HOLDS = ("zoh", "foh")
@@ -122,6 +123,10 @@ class IdentifyOptions:
         With "guarded": also try the generic list of each order below the selected one,
         refined to its optimum, while its validation fit is within ``order_tolerance`` of
         the model so far (docs/method.md §12, "The orders below").
+    polish_selected : bool, default True
+        With "guarded": continue the selected model's free refinement to its optimum and keep
+        that where it fits validation better by more than two paired standard errors
+        (docs/method.md §12, "The selected model's optimum").
     refine_iterations : int, default 10
         Most Levenberg-Marquardt steps of each refinement compared on validation (the
         generic list's then runs on to its optimum, docs/method.md §12).
@@ -205,6 +210,7 @@ class IdentifyOptions:
     trend_degree: int = 2
     refine: str = "guarded"
     lower_orders: bool = True
+    polish_selected: bool = True
     refine_iterations: int = 10
     refine_ridge: float | tuple[float, ...] = (0.0, 1.0)
     center: bool = True
@@ -248,6 +254,7 @@ class IdentifyOptions:
             "trend_degree": check_integer("trend_degree", self.trend_degree, 0, MAX_TREND_DEGREE),
             "refine": check_choice("refine", refine, REFINE_CHOICES),
             "lower_orders": check_flag("lower_orders", self.lower_orders),
+            "polish_selected": check_flag("polish_selected", self.polish_selected),
             "refine_iterations": check_integer("refine_iterations", self.refine_iterations, 1),
             "refine_ridge": check_ridges(self.refine_ridge),
             "center": check_flag("center", self.center),
@@ -291,12 +298,14 @@ class IdentifyOptions:
 
         Each refinement of the guarded refinement stops after five Levenberg-Marquardt steps
         instead of ten (the generic list of the selected order still runs on to its optimum),
-        and the orders below the selected one are not tried (``lower_orders=False``); every
-        other choice is the default's, the noise model and its bands included. Its mean
-        validation VAF, paired over the 119 cases of the generalization benchmark, is 0.04,
-        0.28 and 0.10 points below the default's on seeds 0, 1 and 2, within the 0.3 points a
-        preset may lose, at 0.68 of the default's seconds per case on seed 0 (docs/accuracy.md,
-        "The fast preset"; with the orders below it lost 0.13 on seed 0 at 0.94 of the time).
+        the orders below the selected one are not tried (``lower_orders=False``) and the
+        selected model keeps its early stop (``polish_selected=False``); every other choice is
+        the default's, the noise model and its bands included. Its mean validation VAF, paired
+        over the 119 cases of the generalization benchmark, is 0.05, 0.27 and 0.14 points below
+        the default's on seeds 0, 1 and 2, within the 0.3 points a preset may lose, at 0.6 of
+        the default's seconds per case (docs/accuracy.md, "The fast preset"; with the orders
+        below it lost 0.13 on seed 0 at 0.94 of the time; with the selected model's optimum it
+        lost 0.00, 0.25 and 0.09 at 0.62-0.77 of the time).
         Five steps: seed 0 first chose two (0.77 of the time), which lost 0.36 points on seed
         1; five was the next candidate of seed 0. Smaller filter grids were
         cheaper but lost a DaISy record by tens of points; refining with the ridge of 1 alone
@@ -310,8 +319,8 @@ class IdentifyOptions:
         Returns
         -------
         IdentifyOptions
-            The default options with ``refine_iterations=5`` and ``lower_orders=False``,
-            then ``changes``.
+            The default options with ``refine_iterations=5``, ``lower_orders=False`` and
+            ``polish_selected=False``, then ``changes``.
 
         Examples
         --------

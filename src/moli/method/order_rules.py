@@ -8,7 +8,8 @@
 
 and what the guarded refinement tries once an order is selected (docs/method.md §12): the
 generic list of that order (:func:`generic_candidate`) and of the orders below it
-(:func:`generic_orders_below`), refined to their optimum.
+(:func:`generic_orders_below`), refined to their optimum, and the selected model's own
+optimum (:func:`polished_if_clearly_better`).
 """
 
 from __future__ import annotations
@@ -28,12 +29,16 @@ from .search import PathStep, StructureSearch
 from .structure import generic_indices, raised
 
 __all__ = ["select_order", "select_order_paired", "select_by_shares", "error_shares", "select_order_refined", "siblings", "generic_candidate",
-           "generic_orders_below", "clearly_better"]
+           "generic_orders_below", "polished_if_clearly_better", "polished", "refined_as", "clearly_better"]
 
 # Batches of the paired order rule: enough for a standard error, each long enough
 # (tens of samples on short records) to hold the errors' serial correlation.
 PAIRED_BATCHES = 10
 PAIRED_Z = 1.0
+# Paired standard errors by which a model refined to its optimum must beat the same model
+# stopped early before it replaces it: the early stop is the default's choice (docs/accuracy.md),
+# so leaving it asks for the significance of the order-bound warning, not the sibling lists'.
+POLISH_Z = 2.0
 
 
 def select_order(path: list[PathStep], tolerance: float = 1.0) -> int:
@@ -240,9 +245,7 @@ def generic_candidate(search: StructureSearch, step: PathStep, refine_free: Call
             candidate = refine_free(step if own else search.fit(generic))
         except (MoliError, np.linalg.LinAlgError):
             return None
-        model = polish(candidate.model, data, max_radius)
-        if model is not candidate.model:
-            candidate = replace(candidate, model=model, vaf=compare(model, validation, x0).vaf)
+        candidate = polished(candidate, data, validation, x0, max_radius)
     return candidate if candidate.stable else None
 
 
@@ -287,6 +290,38 @@ def generic_orders_below(search: StructureSearch, path: list[PathStep], selected
         selected -= 1
         path[selected] = candidate
     return selected
+
+
+def polished_if_clearly_better(step: PathStep, data: IOData, validation: IOData, x0: str = "zero",
+                               max_radius: float = MAX_RADIUS, z: float = POLISH_Z) -> PathStep:
+    """``step`` with its free refinement continued to the optimum (:func:`moli.method.refinement.polish`)
+    where that fits ``validation`` better by more than ``z`` paired standard errors; else ``step``.
+
+    A few refinement steps act as early stopping, which the benchmark chose for noisy records.
+    On a record whose noise is small against what the model still misses, they stop far above
+    the optimum: a lightly damped SISO plant of order 10 at 40 dB (3184 samples) stopped at 350
+    times the noise floor of ``V`` and fitted its true response at 96 %, at the optimum 100 %.
+    """
+    candidate = polished(step, data, validation, x0, max_radius)
+    return candidate if candidate.stable and clearly_better(candidate, step, validation, x0, z) else step
+
+
+def polished(step: PathStep, data: IOData, validation: IOData, x0: str = "zero",
+             max_radius: float = MAX_RADIUS) -> PathStep:
+    """``step`` with its free refinement continued to the optimum (:func:`moli.method.refinement.polish`)
+    and validated; ``step`` itself where the polish leaves its model as it is."""
+    model = polish(step.model, data, max_radius)
+    return step if model is step.model else replace(step, model=model, vaf=compare(model, validation, x0).vaf)
+
+
+def refined_as(model: StateSpaceModel, refine_free: Callable[[PathStep], PathStep], data: IOData,
+               validation: IOData, x0: str = "zero", max_radius: float = MAX_RADIUS) -> Callable[[PathStep], PathStep]:
+    """A step refined as ``model`` was: freely (``refine_free``), then on to the optimum where
+    ``model`` was (:func:`polished`); for comparisons like for like with ``model``."""
+    def refine(step: PathStep) -> PathStep:
+        step = refine_free(step)
+        return polished(step, data, validation, x0, max_radius) if model.info.get("refine_polished") else step
+    return refine
 
 
 def clearly_better(step: PathStep, than: PathStep, validation: IOData, x0: str = "zero",

@@ -327,7 +327,7 @@ def polish(model: StateSpaceModel, data: IOData, max_radius: float = MAX_RADIUS)
     """
     info = model.info
     if not (info.get("refined") and info.get("refine_iterations", 0) > 0 and info.get("refine_ridge", 0.0) == 0.0
-            and "refine_method" not in info):
+            and "refine_method" not in info) or info.get("refine_polished"):
         return model
     N, p = data.y.shape
     # it continues a refinement whose steps ended at or near the damping floor: restarted at a
@@ -339,7 +339,7 @@ def polish(model: StateSpaceModel, data: IOData, max_radius: float = MAX_RADIUS)
     if result.iterations == 0:
         return model
     result.model.info.update(refine_iterations=info["refine_iterations"] + result.iterations,
-                             refine_cost_start=info["refine_cost_start"])
+                             refine_cost_start=info["refine_cost_start"], refine_polished=True)
     return result.model
 
 

@@ -10,11 +10,14 @@ than the validation record's chance: :func:`warn_if_at_bound`.
 from __future__ import annotations
 
 import warnings
-from typing import Sequence
+from typing import Callable, Sequence
+
+import numpy as np
 
 from ..data.iodata import IOData
-from ..errors import OrderBoundWarning, ShortValidationWarning
+from ..errors import MoliError, OrderBoundWarning, ShortValidationWarning
 from .order_rules import clearly_better
+from .refined_covariance import is_refined
 from .rows import parameter_counts
 from .search import PathStep, StructureSearch, next_step
 
@@ -87,12 +90,13 @@ def warn_if_short_selection(path: Sequence[PathStep], validation_samples: int, m
 
 
 def warn_if_at_bound(path: Sequence[PathStep], selected: int, nmax: int, validation: IOData, x0: str = "zero",
-                     beyond: tuple[StructureSearch, PathStep] | None = None, stacklevel: int = 2) -> None:
+                     beyond: tuple[StructureSearch, PathStep, PathStep, Callable[[PathStep], PathStep] | None]
+                     | None = None, stacklevel: int = 2) -> None:
     """Issue an :class:`OrderBoundWarning` when the selected order is the search's bound
     ``nmax`` and beats the best lower order of ``path`` by more than :data:`BOUND_Z` paired
     standard errors on ``validation`` (:func:`moli.method.order_rules.clearly_better`), and,
-    with ``beyond``, the path's step one order above the bound beats its step at the bound
-    by as much.
+    with ``beyond``, the path's step one order above the bound beats its step at the bound by
+    as much, and (refined as the selected model was) the selected model too.
 
     A bound order that wins by less than the validation record's chance says nothing about
     higher ones; one that clearly wins may (under strong output noise that is often the
@@ -110,13 +114,17 @@ def warn_if_at_bound(path: Sequence[PathStep], selected: int, nmax: int, validat
         The record the path's VAFs were computed on.
     x0 : {"zero", "estimate"}
         Initial state of the validation simulations.
-    beyond : (StructureSearch, PathStep), optional
-        The search and the path's least-squares step at the bound, as the search fitted it: the
-        greedy step from it (:func:`moli.method.search.next_step`) is fitted only where the rest
-        would warn, both are scored on the search's own validation record (with its inputs
-        shifted by any delays, as they were fitted), and where the step does not clearly beat
-        the bound's nothing is said (where the record allows no higher list, the warning stands
-        on the lower orders alone).
+    beyond : (StructureSearch, PathStep, PathStep, callable or None), optional
+        The search, the path's least-squares step at the bound as the search fitted it, the
+        selected step as it is returned (without input delays), and the free refinement the
+        search gives a step (None without refinement). The greedy step from the bound's
+        (:func:`moli.method.search.next_step`) is fitted only where the rest would warn; all are
+        scored on the search's own validation record (with its inputs shifted by any delays, as
+        they were fitted). Nothing is said where that step does not clearly beat the bound's
+        least squares, or where it (refined, when the selected model is a refinement) does not
+        clearly beat the selected model: a higher order that fits no better than the model
+        returned gives no reason to raise the bound. Where the record allows no higher list,
+        the warning stands on the lower orders alone.
     stacklevel : int
         As for :func:`warnings.warn`, counted from the caller.
     """
@@ -127,12 +135,20 @@ def warn_if_at_bound(path: Sequence[PathStep], selected: int, nmax: int, validat
         return
     above = None
     if beyond is not None:
-        search, last = beyond
+        search, last, returned, refine = beyond
         with warnings.catch_warnings():
             # a list above the path: its least squares may be unstable, as on the path itself
             warnings.simplefilter("ignore", RuntimeWarning)
             above = next_step(search, last)
-        if above is not None and not clearly_better(above, last, search.validation, x0, BOUND_Z):
+            if above is not None and not clearly_better(above, last, search.validation, x0, BOUND_Z):
+                return
+            rival = above
+            if above is not None and refine is not None and is_refined(returned.model):
+                try:                # like for like: the selected model's refinement against the step's
+                    rival = refine(above)
+                except (MoliError, np.linalg.LinAlgError):
+                    pass
+        if rival is not None and not clearly_better(rival, returned, search.validation, x0, BOUND_Z):
             return
     still = "" if above is None else f"; the path's order {above.order} fits it clearly better still"
     warnings.warn(
