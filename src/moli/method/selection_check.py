@@ -116,8 +116,9 @@ def warn_if_at_bound(path: Sequence[PathStep], selected: int, nmax: int, validat
         Initial state of the validation simulations.
     beyond : (StructureSearch, PathStep, PathStep, callable or None), optional
         The search, the path's least-squares step at the bound as the search fitted it, the
-        selected step as it is returned (without input delays), and the free refinement the
-        search gives a step (None without refinement). The greedy step from the bound's
+        selected step as it is returned (without input delays), and a step's refinement as the
+        selected model had it (:func:`moli.method.order_rules.refined_as`; None without
+        refinement). The greedy step from the bound's
         (:func:`moli.method.search.next_step`) is fitted only where the rest would warn; all are
         scored on the search's own validation record (with its inputs shifted by any delays, as
         they were fitted). Nothing is said where that step does not clearly beat the bound's
