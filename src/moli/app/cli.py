@@ -219,8 +219,8 @@ def demo(out_dir: Path, nmax: int, all_lists: bool, force: bool) -> None:
 @click.option("--seed", type=int, help="Seed of the randomized filter search [default: 0].")
 @click.option("--preset", type=click.Choice(PRESETS),
               help="Search options: default (chosen on the generalization benchmark), fast (the "
-                   "default with a shorter refinement and no orders below the selected one: about 0.7 of "
-                   "its time, a little less accurate), "
+                   "default with a shorter refinement, without the orders below the selected one or the "
+                   "selected model's optimum: about 0.6 of its time, a little less accurate), "
                    "improved (the earlier default), bounded (no modes slower than a tenth of the "
                    "record) or paper (the published MOLI-ZOFT) [default: default].")
 @click.option("--x0", type=click.Choice(X0_CHOICES),
