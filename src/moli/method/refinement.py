@@ -309,12 +309,15 @@ def polish(model: StateSpaceModel, data: IOData, max_radius: float = MAX_RADIUS)
     on to the minimum of ``V``, where its estimate is consistent and the covariance of
     :func:`moli.method.refined_covariance.refined_covariance` holds: on the 3x3 example
     plant (600 samples) its least-squares start is 10-66 steps away, and stopped at ten
-    its bands held the true gain at 0.73-0.78 of the points, at the minimum 0.91-0.95.
+    its bands held the true gain at 0.73-0.78 of the points, at the minimum 0.91-0.95. The
+    selected model is taken there too where validation clearly prefers it
+    (:func:`moli.method.order_rules.polished_if_clearly_better`).
 
     Parameters
     ----------
     model : StateSpaceModel
-        The model to continue; only a free output-error refinement with accepted steps is.
+        The model to continue; only a free output-error refinement with accepted steps is,
+        and not one this function already continued (``info["refine_polished"]``).
     data : IOData
         The record it was refined on.
     max_radius : float, default 1 - 1e-3
@@ -323,7 +326,8 @@ def polish(model: StateSpaceModel, data: IOData, max_radius: float = MAX_RADIUS)
     Returns
     -------
     StateSpaceModel
-        ``info["refine_iterations"]`` counts the steps of both refinements.
+        ``info["refine_iterations"]`` counts the steps of both refinements, and
+        ``info["refine_polished"]`` is True.
     """
     info = model.info
     if not (info.get("refined") and info.get("refine_iterations", 0) > 0 and info.get("refine_ridge", 0.0) == 0.0
