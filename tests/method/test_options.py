@@ -102,7 +102,7 @@ def test_presets_show_what_they_set():
         IdentifyOptions.preset("quick")
 
 
-def test_the_fast_preset_is_the_default_with_a_shorter_refinement_and_no_orders_below():
+def test_the_fast_preset_is_the_default_with_a_shorter_refinement_and_no_polishes_of_its_own():
     fast = IdentifyOptions.preset("fast")
     assert fast == IdentifyOptions.fast() == IdentifyOptions(refine_iterations=5, lower_orders=False,
                                                              polish_selected=False)

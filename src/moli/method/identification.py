@@ -27,8 +27,8 @@ from .prediction_error import prediction_error_refine
 from .refinement import MAX_RADIUS, refine_each
 from .refined_covariance import is_refined
 from .result import IdentificationResult
-from .order_rules import (clearly_better, generic_candidate, generic_orders_below, polished_if_clearly_better, refined_as,
-                          select_order, select_order_paired, select_order_refined, siblings)
+from .order_rules import (clearly_better, generic_candidate, generic_orders_below, polished_if_clearly_better, select_order,
+                          select_order_paired, select_order_refined, siblings)
 from .search import PathStep, StructureSearch, greedy_path
 from .selection_check import warn_if_at_bound, warn_if_short_selection
 from .tuning import default_omega
@@ -215,12 +215,13 @@ def identify(
 
     ridges = opts.refine_ridge if isinstance(opts.refine_ridge, tuple) else (opts.refine_ridge,)
 
-    done: dict[tuple[int, float], PathStep] = {}
+    done: dict[tuple[int, float], tuple[StateSpaceModel, PathStep]] = {}
 
     def refined(step: PathStep, chosen: tuple[float, ...] = ridges[:1]) -> list[PathStep]:
         """The step refined with each ridge, from its model; each counts the time of all.
-        A model refined with a ridge before (the order rule's walk) is not refined again."""
-        todo = tuple(r for r in chosen if (id(step.model), r) not in done)
+        A model refined with a ridge before (the order rule's walk) is not refined again: ``done``
+        holds each model beside its id, which is unique only while the model lives."""
+        todo = tuple(r for r in chosen if done.get((id(step.model), r), (None,))[0] is not step.model)
         if todo:
             started = time.perf_counter()
             models = [result.model for result in refine_each(step.model, searched, todo, max_radius=bound,
@@ -228,8 +229,8 @@ def identify(
             vafs = [compare(model, scored, opts.x0).vaf for model in models]
             seconds = step.seconds + time.perf_counter() - started
             for ridge, model, vaf in zip(todo, models, vafs):
-                done[id(step.model), ridge] = replace(step, model=model, vaf=vaf, seconds=seconds)
-        return [done[id(step.model), r] for r in chosen]
+                done[id(step.model), ridge] = step.model, replace(step, model=model, vaf=vaf, seconds=seconds)
+        return [done[id(step.model), r][1] for r in chosen]
 
     def free(step: PathStep) -> PathStep:
         return refined(step, (0.0,))[0]
@@ -322,7 +323,7 @@ def identify(
             skipped = tuple(phases[phases.index(stage):])
     if skipped:
         path[selected].model.info["interrupted"] = {"skipped": list(skipped)}
-    returned = replace(path[selected])      # as the search fitted it, for the bound warning's next order
+    returned = replace(path[selected])      # delay-free, as the search scores it: for the bound warning
     if any(delays):
         for step in path:
             step.model = step.model.with_input_delays(delays)
@@ -332,8 +333,8 @@ def identify(
     model.warn_if_unstable(stacklevel=2)
     # a fixed order is the caller's choice, not the search running into its bound
     if not interrupted and path[selected].order != opts.order:
-        like = None if opts.refine == "none" else refined_as(returned.model, free, searched, scored, opts.x0, bound)
-        warn_if_at_bound(path, selected, nmax, validation, opts.x0, beyond=None if skipped else (search, at_bound, returned, like))
+        warn_if_at_bound(path, selected, nmax, validation, opts.x0, beyond=None if skipped else (
+            search, at_bound, returned, None if opts.refine == "none" else refined, bound))
     warn_if_short_selection(path, scored.N, scored.m, stacklevel=2)
     return IdentificationResult(
         model=model, path=path, selected_index=selected, estimation=estimation,
@@ -416,5 +417,4 @@ def _loop_record(loop: str, projection: ReferenceProjection | None, feedback: st
         why = "asked for: the model and its noise model estimated jointly by prediction error"
     else:
         why = ("identified as if open-loop, though " + feedback) if feedback else "no feedback detected"
-    record: dict[str, object] = {"method": loop, "why": why, "feedback": feedback}
-    return record | (projection.to_dict() if projection is not None else {})
+    return {"method": loop, "why": why, "feedback": feedback} | (projection.to_dict() if projection is not None else {})

@@ -29,12 +29,15 @@ from .search import PathStep, StructureSearch
 from .structure import generic_indices, raised
 
 __all__ = ["select_order", "select_order_paired", "select_by_shares", "error_shares", "select_order_refined", "siblings", "generic_candidate",
-           "generic_orders_below", "polished_if_clearly_better", "polished", "refined_as", "clearly_better"]
+           "generic_orders_below", "polished_if_clearly_better", "polished", "refined_as", "RefineSteps",
+           "clearly_better"]
 
 # Batches of the paired order rule: enough for a standard error, each long enough
 # (tens of samples on short records) to hold the errors' serial correlation.
 PAIRED_BATCHES = 10
 PAIRED_Z = 1.0
+# ``refine(step, ridges)``: the step refined with each ridge, validated (what identify's search does).
+RefineSteps = Callable[[PathStep, tuple[float, ...]], list[PathStep]]
 # Paired standard errors by which a model refined to its optimum must beat the same model
 # stopped early before it replaces it: the early stop is the default's choice (docs/accuracy.md),
 # so leaving it asks for the significance of the order-bound warning, not the sibling lists'.
@@ -301,6 +304,26 @@ def polished_if_clearly_better(step: PathStep, data: IOData, validation: IOData,
     On a record whose noise is small against what the model still misses, they stop far above
     the optimum: a lightly damped SISO plant of order 10 at 40 dB (3184 samples) stopped at 350
     times the noise floor of ``V`` and fitted its true response at 96 %, at the optimum 100 %.
+
+    Parameters
+    ----------
+    step : PathStep
+        The selected model so far.
+    data : IOData
+        The record it was refined on.
+    validation : IOData
+        The record its VAF was computed on.
+    x0 : {"zero", "estimate"}
+        Initial state of the validation simulations.
+    max_radius : float
+        Pole radius bound of the polish's steps.
+    z : float, default 2
+        Paired standard errors (:func:`clearly_better`).
+
+    Returns
+    -------
+    PathStep
+        ``step`` itself, or a new step with the polished model and its VAF.
     """
     candidate = polished(step, data, validation, x0, max_radius)
     return candidate if candidate.stable and clearly_better(candidate, step, validation, x0, z) else step
@@ -309,19 +332,47 @@ def polished_if_clearly_better(step: PathStep, data: IOData, validation: IOData,
 def polished(step: PathStep, data: IOData, validation: IOData, x0: str = "zero",
              max_radius: float = MAX_RADIUS) -> PathStep:
     """``step`` with its free refinement continued to the optimum (:func:`moli.method.refinement.polish`)
-    and validated; ``step`` itself where the polish leaves its model as it is."""
+    and validated; ``step`` itself where the polish leaves its model as it is.
+
+    Parameters
+    ----------
+    step : PathStep
+    data, validation, x0, max_radius
+        As for :func:`polished_if_clearly_better`.
+
+    Returns
+    -------
+    PathStep
+    """
     model = polish(step.model, data, max_radius)
     return step if model is step.model else replace(step, model=model, vaf=compare(model, validation, x0).vaf)
 
 
-def refined_as(model: StateSpaceModel, refine_free: Callable[[PathStep], PathStep], data: IOData,
-               validation: IOData, x0: str = "zero", max_radius: float = MAX_RADIUS) -> Callable[[PathStep], PathStep]:
-    """A step refined as ``model`` was: freely (``refine_free``), then on to the optimum where
-    ``model`` was (:func:`polished`); for comparisons like for like with ``model``."""
-    def refine(step: PathStep) -> PathStep:
-        step = refine_free(step)
+def refined_as(model: StateSpaceModel, refine: RefineSteps, data: IOData, validation: IOData, x0: str = "zero",
+               max_radius: float = MAX_RADIUS) -> Callable[[PathStep], PathStep]:
+    """A function refining a step as ``model`` was refined, for comparisons like for like.
+
+    Parameters
+    ----------
+    model : StateSpaceModel
+        An output-error refinement (``info["refined"]``): its ridge is used, and the step is
+        taken on to its optimum (:func:`polished`) where ``model`` was.
+    refine : callable
+        ``refine(step, ridges)``: the step refined with each ridge, validated (the search's).
+    data, validation, x0, max_radius
+        As for :func:`polished`.
+
+    Returns
+    -------
+    callable
+        ``PathStep -> PathStep``.
+    """
+    ridge = float(model.info.get("refine_ridge", 0.0))
+
+    def refined(step: PathStep) -> PathStep:
+        step = refine(step, (ridge,))[0]
         return polished(step, data, validation, x0, max_radius) if model.info.get("refine_polished") else step
-    return refine
+    return refined
 
 
 def clearly_better(step: PathStep, than: PathStep, validation: IOData, x0: str = "zero",

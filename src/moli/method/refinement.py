@@ -292,7 +292,7 @@ class RefinementStart:
             if not improved or gain < tolerance:
                 break
         _, x0 = problem.unpack(theta)
-        info = dict(model.info)
+        info = {key: value for key, value in model.info.items() if key != "refine_polished"}   # polish's own mark
         info.update({"refined": True, "refine_iterations": accepted, "refine_ridge": ridge,
                      "refine_cost_start": cost_start, "refine_cost": cost})
         refined = self.finish(model, theta, accepted, info)

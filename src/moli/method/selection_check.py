@@ -10,13 +10,13 @@ than the validation record's chance: :func:`warn_if_at_bound`.
 from __future__ import annotations
 
 import warnings
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 
 from ..data.iodata import IOData
 from ..errors import MoliError, OrderBoundWarning, ShortValidationWarning
-from .order_rules import clearly_better
+from .order_rules import RefineSteps, clearly_better, refined_as
 from .refined_covariance import is_refined
 from .rows import parameter_counts
 from .search import PathStep, StructureSearch, next_step
@@ -89,9 +89,32 @@ def warn_if_short_selection(path: Sequence[PathStep], validation_samples: int, m
         )
 
 
+def _next_order_fits_better(beyond: tuple[StructureSearch, PathStep, PathStep, RefineSteps | None, float],
+                            x0: str) -> tuple[bool, PathStep | None]:
+    """Whether the path's next step clearly beats its least squares at the bound and the model
+    returned (refined as that model was), and the step; (True, None) where the record allows no
+    higher list."""
+    search, last, returned, refine, max_radius = beyond
+    with warnings.catch_warnings():
+        # a list above the path: its least squares may be unstable, as on the path itself
+        warnings.simplefilter("ignore", RuntimeWarning)
+        above = next_step(search, last)
+        if above is None:
+            return True, None
+        if not clearly_better(above, last, search.validation, x0, BOUND_Z):
+            return False, above
+        rival = above
+        if refine is not None and is_refined(returned.model):
+            try:
+                rival = refined_as(returned.model, refine, search.estimation, search.validation, x0, max_radius)(above)
+            except (MoliError, np.linalg.LinAlgError):
+                pass
+    return clearly_better(rival, returned, search.validation, x0, BOUND_Z), above
+
+
 def warn_if_at_bound(path: Sequence[PathStep], selected: int, nmax: int, validation: IOData, x0: str = "zero",
-                     beyond: tuple[StructureSearch, PathStep, PathStep, Callable[[PathStep], PathStep] | None]
-                     | None = None, stacklevel: int = 2) -> None:
+                     beyond: tuple[StructureSearch, PathStep, PathStep, RefineSteps | None, float] | None = None,
+                     stacklevel: int = 2) -> None:
     """Issue an :class:`OrderBoundWarning` when the selected order is the search's bound
     ``nmax`` and beats the best lower order of ``path`` by more than :data:`BOUND_Z` paired
     standard errors on ``validation`` (:func:`moli.method.order_rules.clearly_better`), and,
@@ -114,18 +137,19 @@ def warn_if_at_bound(path: Sequence[PathStep], selected: int, nmax: int, validat
         The record the path's VAFs were computed on.
     x0 : {"zero", "estimate"}
         Initial state of the validation simulations.
-    beyond : (StructureSearch, PathStep, PathStep, callable or None), optional
+    beyond : (StructureSearch, PathStep, PathStep, callable or None, float), optional
         The search, the path's least-squares step at the bound as the search fitted it, the
-        selected step as it is returned (without input delays), and a step's refinement as the
-        selected model had it (:func:`moli.method.order_rules.refined_as`; None without
-        refinement). The greedy step from the bound's
+        selected step as it is returned (without input delays), the search's refinement
+        (``refine(step, ridges)``, the refined steps; None without refinement) and the pole
+        radius bound of its steps. The greedy step from the bound's
         (:func:`moli.method.search.next_step`) is fitted only where the rest would warn; all are
         scored on the search's own validation record (with its inputs shifted by any delays, as
         they were fitted). Nothing is said where that step does not clearly beat the bound's
         least squares, or where it (refined, when the selected model is a refinement) does not
         clearly beat the selected model: a higher order that fits no better than the model
         returned gives no reason to raise the bound. Where the record allows no higher list,
-        the warning stands on the lower orders alone.
+        the warning stands on the lower orders alone; where Ctrl-C stops this check, nothing is
+        said (the identification's result is kept).
     stacklevel : int
         As for :func:`warnings.warn`, counted from the caller.
     """
@@ -136,20 +160,11 @@ def warn_if_at_bound(path: Sequence[PathStep], selected: int, nmax: int, validat
         return
     above = None
     if beyond is not None:
-        search, last, returned, refine = beyond
-        with warnings.catch_warnings():
-            # a list above the path: its least squares may be unstable, as on the path itself
-            warnings.simplefilter("ignore", RuntimeWarning)
-            above = next_step(search, last)
-            if above is not None and not clearly_better(above, last, search.validation, x0, BOUND_Z):
-                return
-            rival = above
-            if above is not None and refine is not None and is_refined(returned.model):
-                try:                # like for like: the selected model's refinement against the step's
-                    rival = refine(above)
-                except (MoliError, np.linalg.LinAlgError):
-                    pass
-        if rival is not None and not clearly_better(rival, returned, search.validation, x0, BOUND_Z):
+        try:
+            better, above = _next_order_fits_better(beyond, x0)
+        except KeyboardInterrupt:       # Ctrl-C during this check: the result is kept, and nothing said
+            return
+        if not better:
             return
     still = "" if above is None else f"; the path's order {above.order} fits it clearly better still"
     warnings.warn(

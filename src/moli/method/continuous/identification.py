@@ -32,8 +32,9 @@ NEGLIGIBLE_VAF = 0.01
 # The options of those steps (and of the discrete search): in continuous time they must
 # keep their defaults, so that none is silently ignored.
 DISCRETE_ONLY = ("filter_grid", "iterations", "seed", "output_filters", "feedthrough", "max_radius",
-                 "criterion_x0", "trend_degree", "refine", "refine_iterations", "refine_ridge", "x0",
-                 "noise_model", "regularization", "delays", "search_samples", "reference", "closed_loop")
+                 "criterion_x0", "trend_degree", "refine", "lower_orders", "polish_selected", "refine_iterations",
+                 "refine_ridge", "x0", "noise_model", "regularization", "delays", "search_samples", "reference",
+                 "closed_loop")
 
 
 @dataclass
