@@ -281,12 +281,12 @@ def test_polish_is_not_stopped_by_the_short_steps_of_a_fresh_damping():
 
 def test_a_polished_model_is_not_polished_again():
     data = _record(noise=0.3, N=800, seed=3).remove_means()
-    polished = polish(refine(_start(data), data, iterations=2).model, data)
-    assert polished.info["refine_polished"]
-    assert polish(polished, data) is polished
+    once = polish(refine(_start(data), data, iterations=2).model, data)
+    assert once.info["refine_polished"]
+    assert polish(once, data) is once
     # the mark is the polish's own: a refinement started from a polished model drops it
     for ridge in (0.0, 1.0):
-        assert "refine_polished" not in refine(polished, data, iterations=3, ridge=ridge).model.info
+        assert "refine_polished" not in refine(once, data, iterations=3, ridge=ridge).model.info
 
 
 def test_the_early_stop_stays_where_validation_does_not_clearly_prefer_the_optimum():
@@ -297,8 +297,9 @@ def test_the_early_stop_stays_where_validation_does_not_clearly_prefer_the_optim
     est = _record(noise=2.0, N=600, seed=4).remove_means()
     val = _record(noise=2.0, N=300, seed=104).remove_means()
     search = moli.method.search.StructureSearch(est, val, moli.method.tuning.default_omega(), "grid")
-    early = refine(search.fit((3, 1)).model, est).model
-    step = dataclasses.replace(search.fit((3, 1)), model=early, vaf=moli.compare(early, val).vaf)
+    fitted = search.fit((3, 1))
+    early = refine(fitted.model, est).model
+    step = dataclasses.replace(fitted, model=early, vaf=moli.compare(early, val).vaf)
     optimum = polished(step, est, val)
     assert optimum.model is not early
     assert polished_if_clearly_better(step, est, val) is step

@@ -323,10 +323,9 @@ def identify(
             skipped = tuple(phases[phases.index(stage):])
     if skipped:
         path[selected].model.info["interrupted"] = {"skipped": list(skipped)}
-    returned = replace(path[selected])      # delay-free, as the search scores it: for the bound warning
-    if any(delays):
-        for step in path:
-            step.model = step.model.with_input_delays(delays)
+    returned = path[selected]               # delay-free, as the search scores it: for the bound warning
+    if any(delays):                         # new steps: the search's own (returned, at_bound) stay as they were
+        path[:] = [replace(step, model=step.model.with_input_delays(delays)) for step in path]
     model = path[selected].model
     model.info["options"] = opts.to_dict()
     model.info["closed_loop"] = _loop_record(loop, projection, feedback)
