@@ -18,11 +18,13 @@ from ..models.statespace import StateSpaceModel
 from ..method.search import PathStep
 from ..validation.comparison import Comparison
 from ..validation.frequency import EmpiricalResponse, empirical_frequency_response
+from ..validation.residuals import ResidualAnalysis
+from .figure_layout import GridLayout
 
 __all__ = [
     "singular_values",
     "vaf_by_order", "measured_vs_simulated", "poles", "step_responses", "settling_samples",
-    "bode_magnitude", "envelope",
+    "bode_magnitude", "envelope", "residual_correlations",
 ]
 
 PANEL_HEIGHT = 1.9  # inches per row of axes
@@ -44,7 +46,8 @@ MAX_DRAWN_FREQUENCIES = 600
 
 
 def new_figure(width: float, height: float) -> Figure:
-    fig = Figure(figsize=(width, height), layout="constrained")
+    """An empty figure on the Agg canvas whose grid of axes :class:`GridLayout` places."""
+    fig = Figure(figsize=(width, height), layout=GridLayout())
     FigureCanvasAgg(fig)
     return fig
 
@@ -212,8 +215,8 @@ def measured_vs_simulated(data: IOData, comparison: Comparison) -> Figure:
     if long:
         grid[0, 1].set_title(f"last {DETAIL_SAMPLES} samples", fontsize=9, loc="right")
         grid[-1, 1].set_xlabel("time")
-    # outside the axes: inside, the legend hides the start-up transient of the first output
-    fig.legend(*axes[0].get_legend_handles_labels(), loc="outside upper left", fontsize=8, ncols=2)
+    # above the axes (GridLayout puts it there): inside, it hides the first output's start-up transient
+    fig.legend(*axes[0].get_legend_handles_labels(), loc="upper left", fontsize=8, ncols=2)
     axes[-1].set_xlabel("time from the start of the record")
     return fig
 
@@ -329,7 +332,7 @@ def bode_magnitude(model: StateSpaceModel, data: IOData | EmpiricalResponse | No
                           markersize=3, label="spectral estimate")
             ax.grid(alpha=0.3, which="both")
     if empirical is not None:
-        fig.legend(*axes[0, 0].get_legend_handles_labels(), loc="outside upper left", fontsize=8, ncols=2)
+        fig.legend(*axes[0, 0].get_legend_handles_labels(), loc="upper left", fontsize=8, ncols=2)
     return fig
 
 
@@ -370,6 +373,14 @@ def singular_values(model: StateSpaceModel, data: IOData | EmpiricalResponse | N
         ax.legend(fontsize=8)
     ax.set(xlabel="frequency (rad per time unit)", ylabel="singular values of H")
     ax.grid(alpha=0.3, which="both")
+    return fig
+
+
+def residual_correlations(analysis: ResidualAnalysis) -> Figure:
+    """:meth:`ResidualAnalysis.plot <moli.validation.residuals.ResidualAnalysis.plot>`'s figure,
+    its grid placed as the other report figures' (:class:`GridLayout`)."""
+    fig = analysis.plot()
+    fig.set_layout_engine(GridLayout())
     return fig
 
 

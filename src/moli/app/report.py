@@ -281,7 +281,7 @@ def write_report(
     lags = min(25, continuous.N // SAMPLES_PER_LAG - 1)
     analysis = residual_analysis(model, continuous, lags=lags) if lags >= 1 else None
     if analysis is not None:
-        drawn["residuals"] = (analysis.plot(), f"Residual correlations on the validation record "
+        drawn["residuals"] = (figures.residual_correlations(analysis), f"Residual correlations on the validation record "
                               f"with their {analysis.confidence:.0%} bands: autocorrelation, then "
                               "the cross-correlation with each input (positive lags: past inputs).")
     figures_html = {}
