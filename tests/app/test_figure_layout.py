@@ -128,6 +128,20 @@ def test_the_axes_fill_the_figure_their_texts_leave(drawn, name):
     assert span_w > 0.8 and span_h > 0.7
 
 
+@pytest.mark.parametrize("suffix", ["svg", "pdf"])
+def test_a_vector_file_is_placed_as_the_png(tmp_path, suffix):
+    # The layout measures its texts with the renderer of whichever backend draws; at the same
+    # figure size the margins agree with the PNG's to a few pixels (the backends' text
+    # extents differ by their hinting).
+    model = _model(2, 2)
+    png, vector = figures.step_responses(model, 40), figures.step_responses(model, 40)
+    save_figure(png, tmp_path / "steps.png")
+    save_figure(vector, tmp_path / f"steps.{suffix}")
+    assert (tmp_path / f"steps.{suffix}").stat().st_size > 0
+    for a, b in zip(png.axes, vector.axes):
+        assert np.allclose(a.get_position().bounds, b.get_position().bounds, atol=0.02)
+
+
 def test_axes_off_one_grid_keep_their_places():
     fig = Figure(figsize=(4, 3), layout=GridLayout())
     from matplotlib.backends.backend_agg import FigureCanvasAgg

@@ -127,7 +127,9 @@ def _place(fig: Figure, specs: list[Any]) -> None:
     """Set the margins and gaps of the grid of ``specs`` from the texts as they are now."""
     grid = specs[0].get_gridspec()
     rows, cols = grid.get_geometry()
-    renderer = fig.canvas.get_renderer()
+    # the canvas's own renderer, whichever backend is drawing (a PDF or SVG file's too): what
+    # matplotlib's own layout engines use
+    renderer = fig._get_renderer()
     width, height = fig.bbox.width, fig.bbox.height
     pad = _points(renderer, PAD_POINTS)
     need = {side: np.zeros((rows, cols)) for side in ("left", "bottom", "top", "right")}
