@@ -12,7 +12,7 @@ from matplotlib.text import Text
 
 import moli
 from moli.app import figures
-from moli.app.figure_files import save_figure
+from moli.app.figure_files import DPI, save_figure
 from moli.app.figure_layout import GridLayout
 from moli.app.figure_ticks import in_view
 from moli.validation.comparison import compare
@@ -63,6 +63,25 @@ def _overlap(a, b) -> bool:
     return min(a.x1, b.x1) - max(a.x0, b.x0) > TOUCH and min(a.y1, b.y1) - max(a.y0, b.y0) > TOUCH
 
 
+def _scaled_model() -> moli.StateSpaceModel:
+    """One output, three inputs, gains near 1e-5: each axes has an offset text under its title."""
+    model = _model(1, 3, names=True)
+    return moli.StateSpaceModel(model.A, model.B, 1e-5 * model.C / np.abs(model.C).max(), model.D,
+                                input_names=model.input_names, output_names=model.output_names)
+
+
+def _rotated_end_labels() -> Figure:
+    """Stacked axes sharing x, y tick labels at both ends of each, x tick labels turned upright."""
+    fig = figures.new_figure(4.0, 4.0)
+    t = np.linspace(0.0, 1.0, 50)
+    for ax in fig.subplots(3, 1, sharex=True):
+        ax.plot(1e4 + 1e3 * t, t)
+        ax.set_ylim(0.0, 1.0)
+        ax.set_yticks([0.0, 0.5, 1.0])
+        ax.tick_params(axis="x", labelrotation=90)
+    return fig
+
+
 def _figures() -> dict[str, Figure]:
     siso, grid, wide = _model(1, 1), _model(3, 3), _model(2, 4, names=True)
     record = _record(grid, 600)
@@ -77,6 +96,8 @@ def _figures() -> dict[str, Figure]:
         "validation 3 outputs": figures.measured_vs_simulated(record, compare(grid, record)),
         "validation long record": figures.measured_vs_simulated(long_record, compare(siso, long_record)),
         "residuals 3x3": figures.residual_correlations(analysis),
+        "steps 1x3, gains 1e-5 under titles": figures.step_responses(_scaled_model(), 40),
+        "rotated labels, labels at the axes' ends": _rotated_end_labels(),
         "poles": figures.poles(grid),
         "singular values": figures.singular_values(grid, record, points=40),
     }
@@ -88,6 +109,10 @@ def drawn(tmp_path_factory) -> dict[str, Figure]:
     made = _figures()
     for name, fig in made.items():
         save_figure(fig, out / f"{name}.png")
+        # drawn again as the file was (save_figure puts the figure's own dpi back after), so
+        # that every text, offset texts included, is measured where the file has it
+        fig.set_dpi(DPI)
+        fig.canvas.draw()
     return made
 
 

@@ -19,7 +19,6 @@ from matplotlib import rcParams
 from matplotlib.axes import Axes
 from matplotlib.axis import Axis
 from matplotlib.figure import Figure
-from matplotlib.font_manager import FontProperties
 from matplotlib.layout_engine import LayoutEngine
 from matplotlib.text import Text
 
@@ -47,35 +46,40 @@ def _tick_labels(fig: Figure, renderer: Any, axis: Axis, side: str) -> tuple[flo
     """Width and height of the widest and tallest tick label of ``axis`` on ``side`` (its
     extent across the axis, then along it; minor ticks' labels too, as a log axis spanning
     less than a decade has), and the tick's length and pad before it; zeros when that side
-    carries no labels."""
-    name = "x" if axis is axis.axes.xaxis else "y"
-    params = axis.get_tick_params(which="major")
-    if not params.get(f"label{side}", side in ("bottom", "left")):
+    carries no labels.
+
+    The labels' style (shown or not, font, rotation, pad) is read from the axis's first
+    major tick, which the draw builds anyway; the strings come from its locators and
+    formatters, trimmed to the view.
+    """
+    tick = axis.get_major_ticks(1)[0]
+    label = tick.label1 if side in ("bottom", "left") else tick.label2
+    if not label.get_visible():
         return 0.0, 0.0, 0.0
     labels = set()
     for locs, formatter in ((axis.get_majorticklocs(), axis.get_major_formatter()),
                             (axis.get_minorticklocs(), axis.get_minor_formatter())):
         labels.update(formatter.format_ticks(in_view(axis, np.asarray(locs, dtype=float))))
     labels.discard("")
-    font = FontProperties(size=params.get("labelsize", rcParams[f"{name}tick.labelsize"]))
+    if not labels:
+        return 0.0, 0.0, 0.0
     across = along = 0.0
-    for label in labels:
-        box = Text(text=label, fontproperties=font, figure=fig,
-                   rotation=params.get("labelrotation", 0.0)).get_window_extent(renderer)
-        width, height = (box.height, box.width) if name == "x" else (box.width, box.height)
+    for text in labels:
+        box = Text(text=text, fontproperties=label.get_fontproperties(), rotation=label.get_rotation(),
+                   figure=fig).get_window_extent(renderer)
+        width, height = (box.height, box.width) if axis is axis.axes.xaxis else (box.width, box.height)
         across, along = max(across, width), max(along, height)
-    direction = params.get("direction", rcParams[f"{name}tick.direction"])
-    length = params.get("length", rcParams[f"{name}tick.major.size"]) if direction != "in" else 0.0
-    pad = params.get("pad", rcParams[f"{name}tick.major.pad"])
-    return across, along, _points(renderer, length + pad) if labels else 0.0
+    return across, along, _points(renderer, tick.get_tick_padding() + tick.get_pad())
 
 
 def _offset(fig: Figure, renderer: Any, axis: Axis) -> float:
-    """Height of the axis's offset or multiplier text (``1e-3``), zero when it has none."""
+    """Height of the axis's offset or multiplier text (``1e-3``) with its pad, zero when it
+    shows none."""
     offset = axis.get_major_formatter().get_offset()
-    if not offset:
+    if not offset or not axis.offsetText.get_visible():
         return 0.0
-    return _text_size(renderer, Text(text=offset, fontproperties=axis.offsetText.get_fontproperties(), figure=fig))[1]
+    text = Text(text=offset, fontproperties=axis.offsetText.get_fontproperties(), figure=fig)
+    return _text_size(renderer, text)[1] + _points(renderer, axis.OFFSETTEXTPAD)
 
 
 def _decorations(fig: Figure, renderer: Any, ax: Axes) -> dict[str, float]:
@@ -86,11 +90,12 @@ def _decorations(fig: Figure, renderer: Any, ax: Axes) -> dict[str, float]:
     # a tick label at an end of its axis reaches past the end by half its extent along the axis
     left = max(across + before + (ylabel + _points(renderer, ax.yaxis.labelpad) if ylabel else 0.0), x_along / 2)
     xlabel = _text_size(renderer, ax.xaxis.label)[1]
-    bottom = (x_across + x_before + (xlabel + _points(renderer, ax.xaxis.labelpad) if xlabel else 0.0)
-              + _offset(fig, renderer, ax.xaxis))
+    bottom = max(x_across + x_before + (xlabel + _points(renderer, ax.xaxis.labelpad) if xlabel else 0.0)
+                 + _offset(fig, renderer, ax.xaxis), along / 2)
     title = max((_text_size(renderer, t)[1] for t in _titles(ax)), default=0.0)
-    top = max(title + _points(renderer, rcParams["axes.titlepad"]) if title else 0.0,
-              _offset(fig, renderer, ax.yaxis), along / 2)
+    # matplotlib lifts the titles above the y axis's offset text where it has one
+    top = max((title + _points(renderer, rcParams["axes.titlepad"]) if title else 0.0)
+              + _offset(fig, renderer, ax.yaxis), along / 2)
     return {"left": left, "bottom": bottom, "top": top, "right": x_along / 2}
 
 
@@ -105,8 +110,11 @@ def _titles(ax: Axes) -> list[Text]:
 class GridLayout(LayoutEngine):
     """Margins and gaps of a figure's one grid of axes set from the sizes of its texts.
 
-    Above the grid: the figure's title and its legends (placed at the top left, one under
-    the other). A figure whose axes do not all lie on one grid keeps its positions.
+    Above the grid: the figure's title (a figure text in its upper half) and its legends
+    (placed at the top left, one under the other). It places what the report's figures
+    have: tick labels and axis labels on the left and at the bottom, offset texts, titles
+    no wider than their column. A figure whose axes do not all lie on one grid keeps its
+    positions.
     """
 
     _adjust_compatible = False
@@ -139,7 +147,7 @@ def _place(fig: Figure, specs: list[Any]) -> None:
                   spec.colspan.stop - 1 if side == "right" else spec.colspan.start)
             need[side][at] = max(need[side][at], value)
     above = pad
-    for text in fig.texts:                 # the figure's title, at the top
+    for text in (t for t in fig.texts if t.get_position()[1] > 0.5):   # the figure's title
         text.set_y(1.0 - above / height)
         text.set_verticalalignment("top")
         above += _text_size(renderer, text)[1] + pad
