@@ -5,8 +5,6 @@ import warnings
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
 import scipy.linalg
 import scipy.signal
 
@@ -15,8 +13,7 @@ from moli.errors import OptionError
 from moli.method.observer_form import observer_form
 from moli.method.output_error import OutputErrorProblem
 from moli.method.order_rules import generic_candidate, polished, polished_if_clearly_better
-from moli.method.refinement import (DAMPING_FLOOR, MAX_RADIUS, PARALLEL, POLISH_ITERATIONS, POLISH_SHARE,
-                                    RefinementStart, _geometric_rest, polish, refine, refine_each)
+from moli.method.refinement import polish, refine, refine_each
 
 
 def _plant(seed=0):
@@ -280,49 +277,6 @@ def test_polish_is_not_stopped_by_the_short_steps_of_a_fresh_damping():
     variance = cost(minimum) / (N * p)
     assert cost(early) - cost(minimum) > 5 * variance
     assert cost(polish(early, est)) - cost(minimum) < 0.1 * variance
-
-
-@settings(max_examples=60, deadline=None)
-@given(st.integers(0, 10**6), st.floats(0.05, 0.95), st.integers(1, 12))
-def test_the_geometric_rest_completes_a_series_of_shrinking_steps(seed, lam, size):
-    first = np.random.default_rng(seed).standard_normal(size) + 0.1
-    # two steps of a series first, first lam, ... and the rest: its sum first / (1 - lam)
-    end = first + lam * first + _geometric_rest(lam * first, first)
-    # a handful of operations on numbers of order one, divided by 1 - lam >= 0.05
-    assert np.allclose(end, first / (1 - lam), rtol=1e-12, atol=1e-12 * np.abs(first).max())
-
-
-def test_no_rest_for_steps_that_grow_reverse_or_turn():
-    step = np.array([1.0, 0.0])
-    assert _geometric_rest(step, None) is None
-    for previous in (0.5 * step, -2.0 * step, step):               # grew, reversed, did not shrink
-        assert _geometric_rest(step, previous) is None
-    turned = np.array([np.cos(0.4), np.sin(0.4)]) * 2.0             # cos 0.4 = 0.92, under PARALLEL
-    assert np.cos(0.4) < PARALLEL and _geometric_rest(step, turned) is None
-    assert _geometric_rest(step, np.array([np.cos(0.2), np.sin(0.2)]) * 2.0) is not None
-
-
-def test_the_polish_jumps_reach_the_minimum_of_a_linearly_converging_refinement():
-    # The example plant's generic list after identify's ten steps (the case above): without
-    # jumps the polish stops 0.04 sample variances above the minimum (its last steps each
-    # 0.86 of the one before); with them it ends 1.4e-6 above, in 14 steps instead of 16.
-    # 0.01 of a variance leaves room for the path's round-off on other processors and fails
-    # the polish without jumps.
-    est = moli.example_data(N=1500, seed=6).remove_means()
-    start = moli.estimate(est, [2, 2, 2], moli.filter_polynomial(0.5, 0.8, [2, 2, 2]))
-    early = refine(start, est).model
-    minimum = refine(early, est, iterations=800, tolerance=0.0, damping=DAMPING_FLOOR).cost
-    N, p = est.y.shape
-    variance = minimum / (N * p)
-
-    def polished(extrapolate):
-        return RefinementStart(early, est, True, MAX_RADIUS).descend(
-            0.0, POLISH_ITERATIONS, POLISH_SHARE / (N * p), DAMPING_FLOOR, extrapolate=extrapolate)
-
-    plain, jumped = polished(False), polished(True)
-    assert plain.cost - minimum > 0.01 * variance
-    assert jumped.cost - minimum < 0.01 * variance
-    assert polish(early, est).info["refine_cost"] == jumped.cost        # what polish does
 
 
 def test_a_polished_model_is_not_polished_again():

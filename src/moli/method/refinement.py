@@ -46,11 +46,6 @@ MAX_RADIUS = 1.0 - 1e-3
 # the last step moved the estimate by about a tenth of one.
 POLISH_SHARE = 0.01
 POLISH_ITERATIONS = 100
-# Cosine above which two consecutive polish steps count as one direction shrinking
-# geometrically (_geometric_rest). Speed alone rides on it, as a jump is kept only where it
-# lowers V: 0.9, 0.95 and 0.99 took 49, 49 and 47 polish steps on the evaporator's paper
-# split (58 without jumps), 70, 69 and 71 on example_data(N=10**5) (80 without).
-PARALLEL = 0.95
 # Levenberg-Marquardt's damping, in units of each column's squared norm: a least-squares start
 # is far from the minimum and takes its first steps short; steps end near the floor.
 START_DAMPING = 1e-3
@@ -247,13 +242,8 @@ class RefinementStart:
         return linearized
 
     def descend(self, ridge: float, iterations: int, tolerance: float,
-                damping: float = START_DAMPING, extrapolate: bool = False) -> RefineResult:
-        """Levenberg-Marquardt steps from the start with this ridge, from this damping.
-
-        With ``extrapolate``, each accepted step that repeats the previous one shrunk
-        (:func:`_geometric_rest`) is followed by a jump to where the geometric series of such
-        steps ends, kept where it lowers the cost.
-        """
+                damping: float = START_DAMPING) -> RefineResult:
+        """Levenberg-Marquardt steps from the start with this ridge, from this damping."""
         problem, theta0, model, data = self.problem, self.theta0, self.model, self.data
         theta, yhat, residual = self.theta, self.yhat, self.residual
         scale = None
@@ -263,14 +253,8 @@ class RefinementStart:
             extra = 0.0 if scale is None or ridge == 0 else float(np.sum((penalty * scale * (th - theta0)) ** 2))
             return float(res @ res) + extra
 
-        def evaluated(th: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-            out = problem.simulate(th)
-            res = problem.residual(out)
-            return out, res, total(res, th)
-
         cost = cost_start = self.cost
         accepted = rejected = 0
-        previous = None
         while self.stable and accepted < iterations:
             norms, reduced = self.linearize(theta, yhat, residual)
             if scale is None:
@@ -294,18 +278,12 @@ class RefinementStart:
                     rejected += 1
                     damping *= 10
                     continue
-                new_yhat, new_res, new_cost = evaluated(trial)
+                new_yhat = problem.simulate(trial)
+                new_res = problem.residual(new_yhat)
+                new_cost = total(new_res, trial)
                 if np.isfinite(new_cost) and new_cost < cost:
-                    before = cost
+                    gain = (cost - new_cost) / cost
                     theta, yhat, residual, cost = trial, new_yhat, new_res, new_cost
-                    rest = _geometric_rest(step, previous) if extrapolate else None
-                    previous = step
-                    if rest is not None and problem.radius(theta + rest) < self.max_radius:
-                        far_yhat, far_res, far_cost = evaluated(theta + rest)
-                        if np.isfinite(far_cost) and far_cost < cost:
-                            theta, yhat, residual, cost = theta + rest, far_yhat, far_res, far_cost
-                            previous = None             # a new series starts after the jump
-                    gain = (before - cost) / before
                     damping = max(damping / 10, DAMPING_FLOOR)
                     improved = True
                     accepted += 1
@@ -360,32 +338,13 @@ def polish(model: StateSpaceModel, data: IOData, max_radius: float = MAX_RADIUS)
     # least-squares start's damping, its first steps were short enough to meet the stop (an
     # order-6 list of a 3x3 record, 12.7 sample variances above its minimum, stopped after one
     # step, 12.6 above it)
-    result = RefinementStart(model, data, True, max_radius).descend(
-        0.0, POLISH_ITERATIONS, POLISH_SHARE / (N * p), DAMPING_FLOOR, extrapolate=True)
+    result = refine(model, data, iterations=POLISH_ITERATIONS, max_radius=max_radius,
+                    tolerance=POLISH_SHARE / (N * p), damping=DAMPING_FLOOR)
     if result.iterations == 0:
         return model
     result.model.info.update(refine_iterations=info["refine_iterations"] + result.iterations,
                              refine_cost_start=info["refine_cost_start"], refine_polished=True)
     return result.model
-
-
-def _geometric_rest(step: np.ndarray, previous: np.ndarray | None) -> np.ndarray | None:
-    """What is left of a geometric series of steps: ``step lam / (1 - lam)``, where ``step``
-    is ``previous`` shrunk by ``0 < lam < 1``, the cosine between them above :data:`PARALLEL`;
-    None otherwise.
-
-    Near its minimum the polish converges linearly: on the evaporator's order-10 generic list
-    each step lowered ``V`` by 0.86 times what the one before did, for 37 steps, along
-    nearly the same direction. The sum of the steps still to come is then the last one times
-    ``lam / (1 - lam)``: Aitken's extrapolation of a linearly converging sequence.
-    """
-    if previous is None:
-        return None
-    along = float(step @ previous)
-    lam = along / float(previous @ previous)
-    if not 0 < lam < 1 or along < PARALLEL * np.linalg.norm(step) * np.linalg.norm(previous):
-        return None
-    return step * (lam / (1 - lam))
 
 
 def _damped_solution(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
