@@ -27,6 +27,9 @@ __all__ = ["ResidualAnalysis", "residual_analysis"]
 SAMPLES_PER_LAG = 4
 # Rows per unknown of the inputs' prewhitening AR models, which bounds their order.
 ROWS_PER_PARAMETER = 10
+# An input's name in the figure's column title, beside its p-value: "vs <name>: p = 0.0038"
+# at 8 points fits a 2.6-inch panel.
+INPUT_TITLE_CHARS = 28
 
 
 def _correlations(a: np.ndarray, b: np.ndarray, lags: int) -> np.ndarray:
@@ -93,7 +96,8 @@ class ResidualAnalysis:
         """The correlations with their bands, one row per output (like the toolbox's ``resid``).
 
         Column 1: the residual's autocorrelation; then one column per input: the
-        cross-correlation at lags ``-lags..lags``. Needs matplotlib.
+        cross-correlation at lags ``-lags..lags``. The outputs name the rows and the inputs
+        the columns; each panel's title is its test's p-value. Needs matplotlib.
 
         Returns
         -------
@@ -112,12 +116,18 @@ class ResidualAnalysis:
         fig.suptitle(f"residual analysis ({kind}), {self.confidence:.0%} bands", fontsize=10)
         own = np.arange(self.lags + 1)
         both = np.arange(-self.lags, self.lags + 1)
+        # the channels' names once each, as a channel grid has them: the outputs' on the rows,
+        # the inputs' over the top row (cut shorter than elsewhere, to share a panel's width
+        # with the p-value); a name in every panel's title ran into the next panel's with plant
+        # tags of 20-30 characters
+        inputs = [figure_label(u, INPUT_TITLE_CHARS) for u in self.input_names]
         for i, name in enumerate(map(figure_label, self.output_names)):
+            axes[i, 0].set_ylabel(name)
             panels = [(axes[i, 0], own, self.autocorrelation[i], self.whiteness_bound,
-                       f"{name}: whiteness p = {self.whiteness_pvalue[i]:.2g}")]
+                       f"whiteness p = {self.whiteness_pvalue[i]:.2g}")]
             panels += [(axes[i, j + 1], both, self.cross_correlation[i, j], self.cross_bound[i, j],
-                        f"{name} vs {u}: p = {self.independence_pvalue[i, j]:.2g}")
-                       for j, u in enumerate(map(figure_label, self.input_names))]
+                        f"{f'vs {u}: ' if i == 0 else ''}p = {self.independence_pvalue[i, j]:.2g}")
+                       for j, u in enumerate(inputs)]
             for ax, lag, values, bound, title in panels:
                 ax.axhspan(-bound, bound, color="C0", alpha=0.15, linewidth=0)
                 ax.vlines(lag, 0.0, values, color="C0", linewidth=1.2)
