@@ -281,9 +281,10 @@ def write_report(
     lags = min(25, continuous.N // SAMPLES_PER_LAG - 1)
     analysis = residual_analysis(model, continuous, lags=lags) if lags >= 1 else None
     if analysis is not None:
-        drawn["residuals"] = (figures.residual_correlations(analysis), f"Residual correlations on the validation record "
-                              f"with their {analysis.confidence:.0%} bands: autocorrelation, then "
-                              "the cross-correlation with each input (positive lags: past inputs).")
+        drawn["residuals"] = (figures.residual_correlations(analysis),
+                              f"Residual correlations on the validation record with their "
+                              f"{analysis.confidence:.0%} bands: autocorrelation, then the "
+                              "cross-correlation with each input (positive lags: past inputs).")
     figures_html = {}
     for name, (fig, caption) in drawn.items():
         png = save_figure(fig, out / f"{name}.png")
