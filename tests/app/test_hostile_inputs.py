@@ -17,6 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 from click.testing import CliRunner, Result
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import moli
 from moli.app import cli
@@ -170,6 +172,28 @@ def test_long_names_are_shortened_in_figures():
     # escapes lengthen a name: counted before it is shortened, not after
     assert len(figure_label("$" * 100)) <= FIGURE_LABEL_CHARS
     assert len(figure_label("\n" * 100)) <= FIGURE_LABEL_CHARS
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.text(alphabet="ab$\\", min_size=1, max_size=80), st.integers(1, 40))
+def test_a_name_cut_in_the_middle_keeps_its_ends_and_stays_literal(name, limit):
+    label = figure_label(name, limit)
+    assert len(label) <= limit
+    escaped = name.replace("$", r"\$")
+    if len(escaped) <= limit:
+        assert label == escaped
+    else:
+        start, _, end = label.partition("…")
+        # both ends of the escaped name, each at most a character short of its half
+        assert escaped.startswith(start) and escaped.endswith(end)
+        assert len(start) >= (limit - 1) - (limit - 1) // 2 - 1 and len(end) >= (limit - 1) // 2 - 1
+        # every dollar still escaped: matplotlib draws the label as text, never as mathtext
+        assert label.count("$") == label.count(r"\$")
+
+
+def test_channels_that_differ_at_the_end_stay_apart_in_figures():
+    names = [f"Plant1/Area2/Reactor3/Feed valve {k}.OP" for k in (101, 102)]
+    assert len(set(figure_label(n, 28) for n in names)) == 2
 
 
 def test_a_megabyte_channel_name_is_read_and_reported_whole_in_the_model_only(tmp_path):

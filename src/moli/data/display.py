@@ -43,16 +43,34 @@ def console_text(text: Any, limit: int | None = None) -> str:
     return shown if limit is None else _shortened(shown, limit)
 
 
+def _cut_in_the_middle(text: str, limit: int) -> str:
+    """``text`` in at most ``limit`` characters, its middle replaced by ``…``; an escape
+    ``\\$`` is never cut in two (its halves would start mathtext or show a stray backslash)."""
+    if len(text) <= limit:
+        return text
+    head, tail = limit - 1 - (limit - 1) // 2, (limit - 1) // 2
+    start, end = text[:head], text[len(text) - tail:] if tail else ""
+    if start.endswith("\\") and text[head] == "$":
+        start = start[:-1]
+    if end.startswith("$") and text[len(text) - tail - 1] == "\\":
+        end = end[1:]
+    return start + "…" + end
+
+
 def figure_label(text: Any, limit: int = FIGURE_LABEL_CHARS) -> str:
-    """``text`` as matplotlib draws it literally: ``$`` escaped (no mathtext), shortened.
+    """``text`` as matplotlib draws it literally: ``$`` escaped (no mathtext), shortened in
+    the middle: channels named alike most often differ at the end, and a figure shows them
+    side by side.
 
     Examples
     --------
     >>> figure_label("cost $a$")
     'cost \\\\$a\\\\$'
+    >>> figure_label("Plant1/Area2/Reactor3/Valve101.OP", 20)
+    'Plant1/Are…lve101.OP'
     """
     # escaped first: the escapes count towards the limit, so no label outgrows it
-    return _shortened(console_text(text).replace("$", r"\$"), limit)
+    return _cut_in_the_middle(console_text(text).replace("$", r"\$"), limit)
 
 
 def report_name(text: Any, limit: int = REPORT_NAME_CHARS) -> str:
