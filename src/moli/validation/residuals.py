@@ -125,9 +125,9 @@ class ResidualAnalysis:
             axes[i, 0].set_ylabel(name)
             panels = [(axes[i, 0], own, self.autocorrelation[i], self.whiteness_bound,
                        f"whiteness p = {self.whiteness_pvalue[i]:.2g}")]
+            headings = [f"vs {u}: " if i == 0 else "" for u in inputs]
             panels += [(axes[i, j + 1], both, self.cross_correlation[i, j], self.cross_bound[i, j],
-                        f"{f'vs {u}: ' if i == 0 else ''}p = {self.independence_pvalue[i, j]:.2g}")
-                       for j, u in enumerate(inputs)]
+                        f"{heading}p = {self.independence_pvalue[i, j]:.2g}") for j, heading in enumerate(headings)]
             for ax, lag, values, bound, title in panels:
                 ax.axhspan(-bound, bound, color="C0", alpha=0.15, linewidth=0)
                 ax.vlines(lag, 0.0, values, color="C0", linewidth=1.2)
