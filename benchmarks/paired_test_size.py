@@ -6,8 +6,10 @@ Usage::
 
 The paired test (``moli.method.order_rules.select_by_shares``, behind ``clearly_better``, the
 paired order rule, the sibling lists, the selected model's optimum and the order-bound warning)
-sums the per-sample differences of two models' squared validation errors in ten contiguous
-batches and calls the difference significant beyond ``z`` batch standard errors. Here the two
+sums the per-sample differences of two models' squared validation errors in contiguous
+batches (ten, or fewer and longer where the differences are correlated over many samples:
+``moli.method.paired_test``) and calls the difference significant beyond ``z`` batch standard
+errors (with fewer batches, the t quantile of the same tail). Here the two
 "models" are equally good by construction: each error is a shared noise plus a misfit of its
 own, all AR(1) with the same pole ``r``. The share of records on which the test finds one of
 them clearly better (one side, as the rules use it) is the test's real size, against the

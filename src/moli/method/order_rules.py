@@ -24,17 +24,15 @@ from ..data.iodata import IOData
 from ..models.statespace import StateSpaceModel
 from ..validation.comparison import compare
 from ..errors import MoliError
+from .paired_test import error_shares, paired_difference
 from .refinement import MAX_RADIUS, polish
 from .search import PathStep, StructureSearch
 from .structure import generic_indices, raised
 
-__all__ = ["select_order", "select_order_paired", "select_by_shares", "error_shares", "select_order_refined", "siblings", "generic_candidate",
+__all__ = ["select_order", "select_order_paired", "select_by_shares", "select_order_refined", "siblings", "generic_candidate",
            "generic_orders_below", "polished_if_clearly_better", "polished", "refined_as", "RefineSteps",
            "clearly_better"]
 
-# Batches of the paired order rule: enough for a standard error, each long enough
-# (tens of samples on short records) to hold the errors' serial correlation.
-PAIRED_BATCHES = 10
 PAIRED_Z = 1.0
 # ``refine(step, ridges)``: the step refined with each ridge, validated (what identify's search does).
 RefineSteps = Callable[[PathStep, tuple[float, ...]], list[PathStep]]
@@ -71,9 +69,10 @@ def select_order_paired(path: list[PathStep], validation: IOData, x0: str = "zer
     The one-standard-error rule on the validation record: each model's mean VAF
     differs from the best model's by a sum over samples of squared-error differences
     (same samples, so the comparison is paired); its standard error comes from
-    :data:`PAIRED_BATCHES` contiguous batch sums, which keeps the serial correlation of
-    simulation errors. The lowest order within ``z`` standard errors of the best is
-    kept. Long records shrink the standard error, so the rule keeps more of the
+    contiguous batch sums, which keep the serial correlation of simulation errors
+    (:func:`moli.method.paired_test.paired_difference`: ten batches, fewer and longer
+    where the differences are correlated over many samples). The lowest order within
+    ``z`` standard errors of the best is kept. Long records shrink the standard error, so the rule keeps more of the
     accuracy there; short ones favour the simpler model. Only stable models are
     eligible when the path has any.
 
@@ -111,8 +110,8 @@ def select_by_shares(path: list, shares: Callable[[int], np.ndarray], z: float =
     for i in sorted(eligible, key=lambda i: path[i].order):
         if i == best:
             return i
-        worse, spread = _paired_difference(shares(i), reference)
-        if np.isfinite(worse) and worse <= max(z * spread, negligible):
+        worse, margin = paired_difference(shares(i), reference, z)
+        if np.isfinite(worse) and worse <= max(margin, negligible):
             return i
     return best
 
@@ -173,8 +172,8 @@ def select_order_refined(
         candidate, step = max(pool, key=lambda pair: pair[0].mean_vaf)
         if i == best:
             return i, step
-        worse, spread = _paired_difference(_error_shares(candidate.model, validation, x0), reference)
-        if np.isfinite(worse) and worse <= z * spread:
+        worse, margin = paired_difference(_error_shares(candidate.model, validation, x0), reference, z)
+        if np.isfinite(worse) and worse <= margin:
             return i, step
     return best, path[best]
 
@@ -386,33 +385,12 @@ def clearly_better(step: PathStep, than: PathStep, validation: IOData, x0: str =
     # the mean VAF clips each output at 0 and the errors do not: both must agree
     if (not step.stable and than.stable) or not step.mean_vaf > than.mean_vaf:
         return False
-    worse, spread = _paired_difference(_error_shares(than.model, validation, x0),
-                                       _error_shares(step.model, validation, x0))
-    return bool(np.isfinite(worse) and worse > z * spread)
+    worse, margin = paired_difference(_error_shares(than.model, validation, x0),
+                                      _error_shares(step.model, validation, x0), z)
+    return bool(np.isfinite(worse) and worse > margin)
 
 
 def _error_shares(model: StateSpaceModel, validation: IOData, x0: str = "zero") -> np.ndarray:
     """Each sample's squared simulation error, in points: summed over the samples, the mean
     over the outputs of ``100 |e_j|^2 / |y_j - mean(y_j)|^2``; inf where the simulation diverges."""
     return error_shares(validation.y, compare(model, validation, x0).yhat)
-
-
-def error_shares(y: np.ndarray, yhat: np.ndarray) -> np.ndarray:
-    """Each sample's squared error of ``yhat``, in points (see :func:`_error_shares`); inf where not finite."""
-    scale = 100.0 / (y.shape[1] * np.maximum(np.sum((y - y.mean(axis=0)) ** 2, axis=0), 1e-300))
-    with np.errstate(all="ignore"):
-        shares = ((y - yhat) ** 2) @ scale
-    return np.nan_to_num(shares, nan=np.inf, posinf=np.inf)
-
-
-def _paired_difference(shares: np.ndarray, reference: np.ndarray) -> tuple[float, float]:
-    """Points of mean VAF by which ``shares`` lose to ``reference``, and its standard error.
-
-    The error comes from :data:`PAIRED_BATCHES` contiguous batch sums of the per-sample
-    differences, which keeps the serial correlation of simulation errors.
-    """
-    batches = np.array_split(np.arange(shares.size), min(PAIRED_BATCHES, shares.size))
-    sums = np.array([np.sum(shares[b] - reference[b]) for b in batches])
-    worse = float(sums.sum())
-    spread = float(np.sqrt(len(sums) / max(len(sums) - 1, 1) * np.sum((sums - worse / len(sums)) ** 2)))
-    return worse, spread

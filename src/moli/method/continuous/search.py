@@ -16,7 +16,7 @@ from typing import Callable
 import numpy as np
 
 from ...models.continuous import ContinuousModel
-from ..order_rules import error_shares
+from ..paired_test import error_shares
 from ..search import ScoredStep
 from ..structure import Indices, raised
 from ..tuning import barycenter

@@ -1,0 +1,96 @@
+"""The paired test of two models on the same validation samples.
+
+Two models' mean VAFs differ by a sum over samples of the differences of their squared
+errors, and the sum's standard error comes from contiguous batch sums of those
+differences (batch means), which keeps the serial correlation of simulation errors
+within each batch. That holds while the batches are long against the differences'
+correlation time: on a short record under coloured noise, ten batches of a few samples
+each are correlated with one another, their spread understates the error, and the test
+declares one of two equally good models better far more often than its level
+(benchmarks/paired_test_size.py). The batches are therefore made at least
+:data:`BATCH_TIMES` correlation times long, at most :data:`PAIRED_BATCHES` and at least
+:data:`MIN_BATCHES` of them, and the threshold of ``z`` standard errors is taken at the
+one-sided level Student's t gives it with ten batches, whatever their number.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import scipy.stats
+
+__all__ = ["PAIRED_BATCHES", "MIN_BATCHES", "BATCH_TIMES", "error_shares", "paired_difference",
+           "correlation_time"]
+
+# Batches where the errors' correlation allows: enough for a standard error, each long enough
+# (tens of samples on short records) to hold the errors' serial correlation.
+PAIRED_BATCHES = 10
+# Fewest batches: two degrees of freedom for the standard error.
+MIN_BATCHES = 3
+# Batch length in correlation times: batch sums of an AR(1) series this long are correlated
+# by about 1 / (2 x 5) = 0.1 with their neighbours (a tenth of the variance left out).
+BATCH_TIMES = 5
+# Sokal's window for the integrated correlation time: the sum runs to the first lag that is at
+# least this many times the time summed so far (the standard choice; 5-10 in the literature).
+WINDOW_TIMES = 5
+
+
+def error_shares(y: np.ndarray, yhat: np.ndarray) -> np.ndarray:
+    """Each sample's squared error of ``yhat``, in points; inf where not finite.
+
+    Summed over the samples: the mean over the outputs of ``100 |e_j|^2 / |y_j - mean(y_j)|^2``.
+    """
+    scale = 100.0 / (y.shape[1] * np.maximum(np.sum((y - y.mean(axis=0)) ** 2, axis=0), 1e-300))
+    with np.errstate(all="ignore"):
+        shares = ((y - yhat) ** 2) @ scale
+    return np.nan_to_num(shares, nan=np.inf, posinf=np.inf)
+
+
+def correlation_time(series: np.ndarray) -> float:
+    """Integrated correlation time ``1 + 2 sum_k rho_k`` of a series, in samples (at least 1).
+
+    The autocorrelations come from one FFT; the sum is windowed as Sokal's: it stops at
+    the first lag ``M >= WINDOW_TIMES * tau(M)``, where the estimated ``rho_k`` are still
+    mostly correlation rather than noise. White noise gives about 1, an AR(1) series of
+    pole ``a`` about ``(1 + a) / (1 - a)``.
+    """
+    x = np.asarray(series, float) - np.mean(series)
+    n = x.size
+    spectrum = np.fft.rfft(x, 2 * n)
+    covariance = np.fft.irfft(spectrum * spectrum.conj(), 2 * n)[:n]
+    if not covariance[0] > 0:
+        return 1.0
+    taus = 1.0 + 2.0 * np.cumsum(covariance[1:] / covariance[0])
+    within = np.nonzero(np.arange(1, n) >= WINDOW_TIMES * taus)[0]
+    tau = taus[within[0]] if within.size else taus[-1]
+    return float(min(max(tau, 1.0), n))
+
+
+def paired_difference(shares: np.ndarray, reference: np.ndarray, z: float) -> tuple[float, float]:
+    """Points of mean VAF by which ``shares`` lose to ``reference``, and the margin ``z`` makes.
+
+    The margin is ``z`` batch standard errors with :data:`PAIRED_BATCHES` batches; with
+    fewer (a short record whose differences are correlated over many samples) it is the
+    threshold of the same one-sided t level at their degrees of freedom. A loss above the
+    margin is significant, one below it is not.
+    """
+    differences = shares - reference
+    count = PAIRED_BATCHES
+    if np.all(np.isfinite(differences)):
+        tau = correlation_time(differences)
+        count = int(min(PAIRED_BATCHES, max(MIN_BATCHES, differences.size // (BATCH_TIMES * tau))))
+    count = min(count, differences.size)
+    batches = np.array_split(np.arange(differences.size), count)
+    sums = np.array([np.sum(shares[b] - reference[b]) for b in batches])
+    worse = float(sums.sum())
+    spread = float(np.sqrt(len(sums) / max(len(sums) - 1, 1) * np.sum((sums - worse / len(sums)) ** 2)))
+    return worse, _threshold(float(z), len(sums)) * spread
+
+
+@functools.lru_cache(maxsize=None)
+def _threshold(z: float, batches: int) -> float:
+    """``z`` where there are :data:`PAIRED_BATCHES` batches; else the t quantile of the same tail."""
+    if batches == PAIRED_BATCHES or batches < 2:
+        return z
+    return float(scipy.stats.t.isf(scipy.stats.t.sf(z, PAIRED_BATCHES - 1), batches - 1))
