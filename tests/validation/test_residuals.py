@@ -185,3 +185,29 @@ def test_ar_whitening_recovers_the_innovations_and_checks_its_order():
     assert fit_ar(e, 10).order == 0  # white: AIC keeps no lag on this record
     with pytest.raises(moli.DataError, match="max_order"):
         fit_ar(e[:20], 10)
+
+
+def test_the_stated_chance_of_a_false_alarm_is_the_true_plants():
+    # The example plant's output noise is white, so on fresh records of example_data its own
+    # simulation errors are under every test's null hypothesis. Its 12 tests at 1 % should fail
+    # at least one on 1 - 0.99**12 = 0.114 of the records; 150 records give a binomial sd of
+    # 0.026, so [0.04, 0.20] is about three either way (measured 21 of 200, 0.105, by
+    # benchmarks/demo_residuals.py). A record's tests that ignored their number would claim 0.01.
+    plant = moli.example_plant()
+    records = 150
+    fails = 0
+    for seed in range(records):
+        analysis = moli.residual_analysis(plant, moli.example_data(seed=seed).split(0.5)[1])
+        fails += bool((analysis.whiteness_pvalue < 0.01).any() or (analysis.independence_pvalue < 0.01).any())
+    assert analysis.tests == 12
+    assert analysis.false_alarm_rate == pytest.approx(1 - 0.99 ** 12, rel=1e-12)
+    assert 0.04 <= fails / records <= 0.20
+
+
+def test_untested_pairs_do_not_count_toward_the_false_alarm_rate():
+    model = moli.StateSpaceModel([[0.5]], [[1.0]], [[1.0]])
+    noise = np.random.default_rng(11).standard_normal(200)
+    constant = moli.residual_analysis(model, moli.IOData(noise, np.ones(200)), lags=5, confidence=0.95)
+    # one whiteness test, the constant input's independence not tested
+    assert constant.tests == 1
+    assert constant.false_alarm_rate == pytest.approx(0.05, rel=1e-12)
