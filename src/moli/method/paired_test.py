@@ -9,8 +9,9 @@ each are correlated with one another, their spread understates the error, and th
 declares one of two equally good models better far more often than its level
 (benchmarks/paired_test_size.py). The batches are therefore made at least
 :data:`BATCH_TIMES` correlation times long, at most :data:`PAIRED_BATCHES` and at least
-:data:`MIN_BATCHES` of them, and the threshold of ``z`` standard errors is taken at the
-one-sided level Student's t gives it with ten batches, whatever their number.
+:data:`MIN_BATCHES` of them (fewer only on a record of fewer samples), and the threshold of
+``z`` standard errors is taken at the one-sided level Student's t gives it with ten batches,
+whatever their number.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-import scipy.stats
+import scipy.special
 
 __all__ = ["PAIRED_BATCHES", "MIN_BATCHES", "BATCH_TIMES", "error_shares", "paired_difference",
            "correlation_time"]
@@ -28,8 +29,8 @@ __all__ = ["PAIRED_BATCHES", "MIN_BATCHES", "BATCH_TIMES", "error_shares", "pair
 PAIRED_BATCHES = 10
 # Fewest batches: two degrees of freedom for the standard error.
 MIN_BATCHES = 3
-# Batch length in correlation times: batch sums of an AR(1) series this long are correlated
-# by about 1 / (2 x 5) = 0.1 with their neighbours (a tenth of the variance left out).
+# Batch length in correlation times: batch sums of an AR(1) series of pole a this long are
+# correlated by a / (5 (1 + a)^2), at most 0.05, with their neighbours.
 BATCH_TIMES = 5
 # Sokal's window for the integrated correlation time: the sum runs to the first lag that is at
 # least this many times the time summed so far (the standard choice; 5-10 in the literature).
@@ -55,15 +56,18 @@ def correlation_time(series: np.ndarray) -> float:
     mostly correlation rather than noise. White noise gives about 1, an AR(1) series of
     pole ``a`` about ``(1 + a) / (1 - a)``.
     """
-    x = np.asarray(series, float) - np.mean(series)
+    series = np.asarray(series, float)
+    if np.ptp(series) == 0:                     # a constant: nothing correlated (np.mean may round)
+        return 1.0
+    x = series - np.mean(series)
     n = x.size
     spectrum = np.fft.rfft(x, 2 * n)
     covariance = np.fft.irfft(spectrum * spectrum.conj(), 2 * n)[:n]
-    if not covariance[0] > 0:
-        return 1.0
     taus = 1.0 + 2.0 * np.cumsum(covariance[1:] / covariance[0])
-    within = np.nonzero(np.arange(1, n) >= WINDOW_TIMES * taus)[0]
-    tau = taus[within[0]] if within.size else taus[-1]
+    # the sum over every lag of a mean-removed series' autocovariances is zero, so the window
+    # closes at the last lag at the latest (and the estimate stays below n / WINDOW_TIMES: on a
+    # short record it runs low, and MIN_BATCHES bounds what that costs)
+    tau = taus[np.argmax(np.arange(1, n) >= WINDOW_TIMES * taus)]
     return float(min(max(tau, 1.0), n))
 
 
@@ -75,16 +79,18 @@ def paired_difference(shares: np.ndarray, reference: np.ndarray, z: float) -> tu
     threshold of the same one-sided t level at their degrees of freedom. A loss above the
     margin is significant, one below it is not.
     """
-    differences = shares - reference
+    with np.errstate(invalid="ignore"):         # two diverging models: inf - inf
+        differences = shares - reference
     count = PAIRED_BATCHES
     if np.all(np.isfinite(differences)):
         tau = correlation_time(differences)
         count = int(min(PAIRED_BATCHES, max(MIN_BATCHES, differences.size // (BATCH_TIMES * tau))))
     count = min(count, differences.size)
     batches = np.array_split(np.arange(differences.size), count)
-    sums = np.array([np.sum(shares[b] - reference[b]) for b in batches])
-    worse = float(sums.sum())
-    spread = float(np.sqrt(len(sums) / max(len(sums) - 1, 1) * np.sum((sums - worse / len(sums)) ** 2)))
+    with np.errstate(invalid="ignore"):         # a diverging model: an infinite loss, no spread
+        sums = np.array([np.sum(shares[b] - reference[b]) for b in batches])
+        worse = float(sums.sum())
+        spread = float(np.sqrt(len(sums) / max(len(sums) - 1, 1) * np.sum((sums - worse / len(sums)) ** 2)))
     return worse, _threshold(float(z), len(sums)) * spread
 
 
@@ -93,4 +99,6 @@ def _threshold(z: float, batches: int) -> float:
     """``z`` where there are :data:`PAIRED_BATCHES` batches; else the t quantile of the same tail."""
     if batches == PAIRED_BATCHES or batches < 2:
         return z
-    return float(scipy.stats.t.isf(scipy.stats.t.sf(z, PAIRED_BATCHES - 1), batches - 1))
+    # scipy.special's t distribution: scipy.stats costs an identification half a second to import
+    tail = scipy.special.stdtr(PAIRED_BATCHES - 1, -z)
+    return float(-scipy.special.stdtrit(batches - 1, tail))
