@@ -79,16 +79,14 @@ def paired_difference(shares: np.ndarray, reference: np.ndarray, z: float) -> tu
     threshold of the same one-sided t level at their degrees of freedom. A loss above the
     margin is significant, one below it is not.
     """
-    with np.errstate(invalid="ignore"):         # two diverging models: inf - inf
+    # a diverging model: an infinite loss and no spread (inf - inf where both diverge)
+    with np.errstate(invalid="ignore"):
         differences = shares - reference
-    count = PAIRED_BATCHES
-    if np.all(np.isfinite(differences)):
-        tau = correlation_time(differences)
-        count = int(min(PAIRED_BATCHES, max(MIN_BATCHES, differences.size // (BATCH_TIMES * tau))))
-    count = min(count, differences.size)
-    batches = np.array_split(np.arange(differences.size), count)
-    with np.errstate(invalid="ignore"):         # a diverging model: an infinite loss, no spread
-        sums = np.array([np.sum(shares[b] - reference[b]) for b in batches])
+        count = PAIRED_BATCHES
+        if np.all(np.isfinite(differences)):
+            tau = correlation_time(differences)
+            count = int(min(PAIRED_BATCHES, max(MIN_BATCHES, differences.size // (BATCH_TIMES * tau))))
+        sums = np.array([np.sum(part) for part in np.array_split(differences, min(count, differences.size))])
         worse = float(sums.sum())
         spread = float(np.sqrt(len(sums) / max(len(sums) - 1, 1) * np.sum((sums - worse / len(sums)) ** 2)))
     return worse, _threshold(float(z), len(sums)) * spread
