@@ -14,8 +14,8 @@ import numpy as np
 
 import moli
 from moli.streaming.chunked import ChunkedEstimator
-from moli.method.estimation import filtered_regressors, realize, solve_batch
-from moli.method.filters import divisors
+from moli.method.least_squares.estimation import filtered_regressors, realize, solve_batch
+from moli.method.structure.filters import divisors
 from streaming_plant import StreamingPlant
 
 

@@ -22,11 +22,11 @@ import warnings
 import numpy as np
 
 import moli
-from moli.method.search import StructureSearch, exhaustive, greedy_path
+from moli.method.search.greedy_path import StructureSearch, exhaustive, greedy_path
 
 from daisy_data import load
 
-PAPER_OMEGA = moli.method.tuning.grid(np.array([0.02, 0.0355, 0.0631, 0.1122, 0.1995, 0.3548]) * np.pi, [0.6, 0.7, 1.1])
+PAPER_OMEGA = moli.method.tuning.barycenter.grid(np.array([0.02, 0.0355, 0.0631, 0.1122, 0.1995, 0.3548]) * np.pi, [0.6, 0.7, 1.1])
 PAPER_PATH = [(1, 2, 1), (1, 3, 1), (1, 4, 1), (1, 5, 1), (2, 5, 1), (3, 5, 1), (3, 6, 1), (4, 6, 1),
               (4, 7, 1), (4, 8, 1), (5, 8, 1), (6, 8, 1)]
 MODES = {"paper-faithful (preset='paper': random barycenter)": {"preset": "paper"}, "improved preset (the earlier default)": {"preset": "improved"}}

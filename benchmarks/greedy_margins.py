@@ -22,8 +22,8 @@ import numpy as np  # noqa: E402
 from daisy_data import load  # noqa: E402
 
 import moli  # noqa: E402
-from moli.method.search import StructureSearch  # noqa: E402
-from moli.method.structure import raised  # noqa: E402
+from moli.method.search.greedy_path import StructureSearch  # noqa: E402
+from moli.method.structure.indices import raised  # noqa: E402
 
 BLOCK = 500
 

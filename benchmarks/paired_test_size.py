@@ -4,11 +4,11 @@ Usage::
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/paired_test_size.py [--repeats 2000] [--seed 0]
 
-The paired test (``moli.method.order_rules.select_by_shares``, behind ``clearly_better``, the
+The paired test (``moli.method.selection.order_rules.select_by_shares``, behind ``clearly_better``, the
 paired order rule, the sibling lists, the selected model's optimum and the order-bound warning)
 sums the per-sample differences of two models' squared validation errors in contiguous
 batches (ten, or fewer and longer where the differences are correlated over many samples:
-``moli.method.paired_test``) and calls the difference significant beyond ``z`` batch standard
+``moli.method.selection.paired_test``) and calls the difference significant beyond ``z`` batch standard
 errors (with fewer batches, the t quantile of the same tail). Here the two
 "models" are equally good by construction: each error is a shared noise plus a misfit of its
 own, all AR(1) with the same pole ``r``. The share of records on which the test finds one of
@@ -25,7 +25,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from moli.method.order_rules import select_by_shares
+from moli.method.selection.order_rules import select_by_shares
 
 LENGTHS = (67, 126, 193, 500, 2000)
 POLES = (0.0, 0.9)

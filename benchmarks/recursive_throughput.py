@@ -15,7 +15,7 @@ import numpy as np
 import moli
 from moli.streaming.filter_bank import FilterBank
 from moli.streaming.recursive import RecursiveMoli
-from moli.method.tuning import default_omega
+from moli.method.tuning.barycenter import default_omega
 from streaming_plant import StreamingPlant
 
 N = int(sys.argv[1]) if len(sys.argv) > 1 else 200_000

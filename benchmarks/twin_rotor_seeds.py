@@ -27,7 +27,7 @@ from moli.control import continuous_poles  # noqa: E402
 from moli.systems import TwinRotor, TwinRotorParameters, identification_experiment  # noqa: E402
 
 ESTIMATION = 150
-OMEGA = moli.method.tuning.grid(np.array([0.8, 1.04, 1.28, 1.52, 1.76, 2.0]) * np.pi, [0.5, 0.625, 0.75])
+OMEGA = moli.method.tuning.barycenter.grid(np.array([0.8, 1.04, 1.28, 1.52, 1.76, 2.0]) * np.pi, [0.5, 0.625, 0.75])
 NMAX = 8
 
 

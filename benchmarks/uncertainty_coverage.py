@@ -35,9 +35,9 @@ import scipy.signal  # noqa: E402
 
 import moli  # noqa: E402
 from generalization_cases import NOISE_POLE  # noqa: E402  (coloured noise as the benchmark's)
-from moli.method.covariance import matrix_directions  # noqa: E402
-from moli.method.estimation import output_regressors  # noqa: E402
-from moli.method.observer_form import observer_form  # noqa: E402
+from moli.method.least_squares.sandwich import matrix_directions  # noqa: E402
+from moli.method.least_squares.estimation import output_regressors  # noqa: E402
+from moli.method.refinement.observer_form import observer_form  # noqa: E402
 
 OMEGA = np.linspace(0.05, 3.0, 30)
 STEPS = 40

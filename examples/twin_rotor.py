@@ -39,7 +39,7 @@ from moli.systems import RigLimitWarning, TwinRotor, identification_experiment  
 
 ESTIMATION = 150  # samples (15 s), as in the paper
 # The paper's filter grid: zeta in {0.5, 0.625, 0.75}, wc in {0.8 ... 2.0} pi rad/s.
-OMEGA = moli.method.tuning.grid(np.array([0.8, 1.04, 1.28, 1.52, 1.76, 2.0]) * np.pi, [0.5, 0.625, 0.75])
+OMEGA = moli.method.tuning.barycenter.grid(np.array([0.8, 1.04, 1.28, 1.52, 1.76, 2.0]) * np.pi, [0.5, 0.625, 0.75])
 NMAX = 8
 # Bryson's rule: acceptable pitch/yaw errors 0.15/0.3 rad, integrated errors twice
 # that (rad s), input moves 1.5 V (the smaller headroom of the main rotor is

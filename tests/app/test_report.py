@@ -14,7 +14,7 @@ import pytest
 import moli
 from moli.app import figures
 from moli.app.report import path_table, validation_caption, write_report
-from moli.method.search import StructureSearch, exhaustive
+from moli.method.search.greedy_path import StructureSearch, exhaustive
 from systems_util import random_system
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"

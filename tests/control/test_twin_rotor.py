@@ -16,7 +16,7 @@ from moli.systems import (
     RigLimitWarning, TwinRotor, TwinRotorError, TwinRotorParameters, identification_experiment,
 )
 
-OMEGA = moli.method.tuning.grid(np.array([0.8, 1.04, 1.28, 1.52, 1.76, 2.0]) * np.pi, [0.5, 0.625, 0.75])
+OMEGA = moli.method.tuning.barycenter.grid(np.array([0.8, 1.04, 1.28, 1.52, 1.76, 2.0]) * np.pi, [0.5, 0.625, 0.75])
 NO_COULOMB = TwinRotorParameters(B2psi=0.0, B2phi=0.0)
 
 

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 import moli
-from moli.method.output_error import OutputErrorProblem
-from moli.method.prediction_error import PredictionErrorStart, prediction_error_refine
-from moli.method.reference_projection import fit_projection
+from moli.method.refinement.output_error import OutputErrorProblem
+from moli.method.refinement.prediction_error import PredictionErrorStart, prediction_error_refine
+from moli.method.closed_loop.reference_projection import fit_projection
 from systems_util import PI_LOOP_A, PI_LOOP_B, PI_LOOP_GAIN as GAIN, pi_loop
 
 def plant_only(data: moli.IOData) -> moli.IOData:
@@ -64,7 +64,7 @@ def test_the_first_stage_recovers_an_exact_fir():
 def test_the_laguerre_basis_is_its_filters_run_from_a_held_reference():
     from scipy.signal import lfilter
 
-    from moli.method.reference_projection import _basis_blocks
+    from moli.method.closed_loop.reference_projection import _basis_blocks
 
     rng = np.random.default_rng(0)
     r, pole = rng.standard_normal((50, 2)), 0.8

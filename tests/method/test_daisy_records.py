@@ -5,9 +5,9 @@ import numpy as np
 import moli
 from conftest import load_shared
 from moli.models.simulation import simulate_batch
-from moli.method.regression import RegressionCache
-from moli.method.scoring import FilterScorer
-from moli.method.tuning import default_omega
+from moli.method.least_squares.shared_factors import RegressionCache
+from moli.method.tuning.criterion import FilterScorer
+from moli.method.tuning.barycenter import default_omega
 
 
 def _half_half(name: str, nmax: int, **options) -> moli.IdentificationResult:

@@ -5,7 +5,7 @@ import pytest
 from scipy.signal import lfilter
 
 import moli
-from moli.method.estimation import fit_batch, realize
+from moli.method.least_squares.estimation import fit_batch, realize
 
 from systems_util import generic_indices, random_system
 

@@ -4,7 +4,7 @@ import numpy as np
 
 import moli
 
-PAPER_OMEGA = moli.method.tuning.grid(np.array([0.02, 0.0355, 0.0631, 0.1122, 0.1995, 0.3548]) * np.pi, [0.6, 0.7, 1.1])
+PAPER_OMEGA = moli.method.tuning.barycenter.grid(np.array([0.02, 0.0355, 0.0631, 0.1122, 0.1995, 0.3548]) * np.pi, [0.6, 0.7, 1.1])
 
 
 def test_paper_path_start(evaporator):

@@ -4,7 +4,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import moli
-from moli.method.filters import _schur_stable, filter_divisors, filter_roots, filter_rows
+from moli.method.structure.filters import _schur_stable, filter_divisors, filter_roots, filter_rows
 
 indices_lists = st.lists(st.integers(1, 7), min_size=1, max_size=4)
 

@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 
 import moli
 from moli.method import identification
-from moli.method.rows import largest_order, samples_needed
-from moli.method.selection_check import SAMPLES_PER_PARAMETER, selection_samples_needed
+from moli.method.structure.rows import largest_order, samples_needed
+from moli.method.selection.checks import SAMPLES_PER_PARAMETER, selection_samples_needed
 
 NMAX = 4
 
@@ -72,7 +72,7 @@ def test_a_long_enough_validation_part_does_not_warn(halves):
 
 def test_samples_needed_is_ten_per_parameter_of_the_largest_model():
     # (2, 1, 1) with 3 inputs: output 1 has 2 * 3 past outputs and 2 * 3 past inputs = 12
-    # parameters (moli.method.rows.parameter_counts), the most of the path
+    # parameters (moli.method.structure.rows.parameter_counts), the most of the path
     from types import SimpleNamespace
     path = [SimpleNamespace(indices=(1, 1, 1)), SimpleNamespace(indices=(2, 1, 1))]
     assert selection_samples_needed(path, 3) == SAMPLES_PER_PARAMETER * 12

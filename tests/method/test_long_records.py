@@ -9,9 +9,11 @@ import pytest
 from scipy.signal import lfilter
 
 import moli
-from moli.method import covariance, estimation, regression, row_blocks, scoring, uncertainty
-from moli.method.filters import filter_polynomial
-from moli.method.long_records import search_window
+from moli.method.least_squares import estimation, row_blocks, sandwich, shared_factors
+from moli.method.tuning import criterion
+from moli.method.uncertainty import matrix_covariance
+from moli.method.structure.filters import filter_polynomial
+from moli.method.search.long_records import search_window
 from moli.numerics import triangular
 
 
@@ -54,7 +56,7 @@ def test_streamed_factor_has_the_gram_matrix_of_the_whole_matrix():
 
 
 def _cache_solutions(z, alpha, starts=(0,)):
-    cache = regression.RegressionCache(z, 2, "auto", starts)
+    cache = shared_factors.RegressionCache(z, 2, "auto", starts)
     full, parts = cache.filters(np.array([[0.6, 0.7]]), (3, 2), 1.0, 2.0)
     return cache.thetas(cache.solve([(full, parts, (3, 2))])[0], (3, 2))
 
@@ -63,7 +65,7 @@ def test_cache_streamed_in_row_blocks_solves_the_same_problems(monkeypatch):
     data = _record(3000)
     z = np.concatenate([data.y, data.u], axis=1)
     whole = _cache_solutions(z, None)
-    monkeypatch.setattr(regression, "WHOLE_ROWS", 100)
+    monkeypatch.setattr(shared_factors, "WHOLE_ROWS", 100)
     streamed = _cache_solutions(z, None)
     # same least-squares problems, factored in another order: round-off apart
     for a, b in zip(whole, streamed):
@@ -74,7 +76,7 @@ def test_cache_folds_a_long_window_in_blocks_to_the_same_problems(monkeypatch):
     data = _record(3000)
     z = np.concatenate([data.y, data.u], axis=1)
     whole = _cache_solutions(z, None)
-    monkeypatch.setattr(regression, "WHOLE_TALL_ROWS", 1000)
+    monkeypatch.setattr(shared_factors, "WHOLE_TALL_ROWS", 1000)
     monkeypatch.setattr(triangular, "WHOLE_TALL_ROWS", 1000)
     monkeypatch.setattr(triangular, "TALL_BLOCK_ROWS", 700)
     folded = _cache_solutions(z, None)
@@ -90,7 +92,7 @@ def test_cache_segments_restart_the_filters():
     split = _cache_solutions(z, None, (0, 1500))
     # independent route: the direct regressors of each record, stacked, solved by lstsq
     alpha = moli.filter_polynomial(0.6, 0.7, (3, 2))
-    parts = moli.method.filters.divisors(alpha, (3, 2))
+    parts = moli.method.structure.filters.divisors(alpha, (3, 2))
     for j in range(2):
         phis = [estimation.output_regressors(np.concatenate([d.y, d.u], axis=1), (3, 2), parts)[j]
                 for d in (first, second)]
@@ -109,18 +111,18 @@ def test_streamed_covariance_refuses_a_rank_deficient_problem():
     phi = rng.standard_normal((300, 2))
     phi[:, 1] = phi[:, 0]
     with pytest.raises(moli.DataError, match="rank deficient"):
-        covariance.streamed_sandwich_factor(lambda: iter([([phi], rng.standard_normal((300, 1)))]))
+        sandwich.streamed_sandwich_factor(lambda: iter([([phi], rng.standard_normal((300, 1)))]))
 
 
 def test_criterion_in_bounded_batches_scores_each_model_alike(monkeypatch):
     data = _record(2000, 7)
     z = np.concatenate([data.y, data.u], axis=1)
-    scorer = scoring.FilterScorer(z, (2, 1), 1.0, 2.0, regression.RegressionCache(z, 2, "auto"),
+    scorer = criterion.FilterScorer(z, (2, 1), 1.0, 2.0, shared_factors.RegressionCache(z, 2, "auto"),
                                   trend_degree=2, max_radius=1.0)
-    etas = moli.method.tuning.default_omega(1.0, "wide")
+    etas = moli.method.tuning.barycenter.default_omega(1.0, "wide")
     models = scorer.fit(etas)
     whole = scorer.criterion(models)
-    monkeypatch.setattr(scoring, "CRITERION_BATCH_VALUES", 3 * z.shape[0] * 2)
+    monkeypatch.setattr(criterion, "CRITERION_BATCH_VALUES", 3 * z.shape[0] * 2)
     # each model's simulation and score do not depend on its batch, but a batch of
     # another size may take another BLAS kernel (blocking, vector width), whose sums
     # round differently: a few ulps on some CPUs (relative 1.5e-16 seen on an AMD EPYC)
@@ -223,18 +225,18 @@ def test_streamed_covariance_of_segments_takes_no_lag_across_a_boundary():
     targets = np.column_stack([phis[0] @ [1.0, -2.0, 0.5] + noise, phis[1] @ [0.3, 0.2] + noise])
     breaks = [400, 650]
     # sandwich_factor with breaks is the sum of each segment's own Newey-West sum (test_segments)
-    whole, _, width = covariance.sandwich_factor(phis, targets, breaks)
+    whole, _, width = sandwich.sandwich_factor(phis, targets, breaks)
 
     def blocks():                      # blocks of 97 rows: two of them straddle a boundary
         for i in range(0, 900, 97):
             yield [phi[i : i + 97] for phi in phis], targets[i : i + 97]
 
-    streamed, _, streamed_width, rows = covariance.streamed_sandwich_factor(blocks, breaks)
+    streamed, _, streamed_width, rows = sandwich.streamed_sandwich_factor(blocks, breaks)
     assert (streamed_width, rows) == (width, 900) and width > 1
     # the same sums cumulated in other blocks: 1e-9 of the largest entry
     cov = whole.T @ whole
     np.testing.assert_allclose(streamed.T @ streamed, cov, rtol=0, atol=1e-9 * np.abs(cov).max())
-    joined, _, _, _ = covariance.streamed_sandwich_factor(blocks)
+    joined, _, _, _ = sandwich.streamed_sandwich_factor(blocks)
     assert not np.allclose(joined.T @ joined, cov, rtol=1e-6)      # the breaks do matter
 
 
@@ -243,7 +245,7 @@ def test_estimate_in_row_blocks_matches_the_whole_record(monkeypatch, segments):
     data = moli.merge([_record(n, 5 + i) for i, n in enumerate(segments)])
     indices, alpha = (2, 1), filter_polynomial(0.5, 0.8, (2, 1))
     whole = moli.estimate(data, indices, alpha)          # every segment's rows, stacked
-    for module in (estimation, uncertainty):
+    for module in (estimation, matrix_covariance):
         monkeypatch.setattr(module, "WHOLE_ROWS", 500)
     streamed = moli.estimate(data, indices, alpha)
     again = moli.estimate_covariance(whole, data)
@@ -277,12 +279,12 @@ def test_criterion_in_bounded_batches_restarts_every_segment_alike(monkeypatch):
     data = moli.merge([_record(900, 20), _record(1100, 21)])
     z = np.concatenate([data.y, data.u], axis=1)
     starts = data.segment_starts
-    scorer = scoring.FilterScorer(z, (2, 1), 1.0, 2.0, regression.RegressionCache(z, 2, "auto", starts),
+    scorer = criterion.FilterScorer(z, (2, 1), 1.0, 2.0, shared_factors.RegressionCache(z, 2, "auto", starts),
                                   x0="estimate", trend_degree=1, starts=starts)
-    models = scorer.fit(moli.method.tuning.default_omega(1.0, "wide"))
+    models = scorer.fit(moli.method.tuning.barycenter.default_omega(1.0, "wide"))
     whole = scorer.criterion(models)
     # three models per batch: each simulates the record and its 3 free responses
-    monkeypatch.setattr(scoring, "CRITERION_BATCH_VALUES", 3 * z.shape[0] * 2 * (1 + 3))
+    monkeypatch.setattr(criterion, "CRITERION_BATCH_VALUES", 3 * z.shape[0] * 2 * (1 + 3))
     # each model's simulation and score do not depend on its batch, but a batch of
     # another size may take another BLAS kernel (blocking, vector width), whose sums
     # round differently: a few ulps on some CPUs (relative 1.5e-16 seen on an AMD EPYC)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import moli
-from moli.method.noise_model import _stabilizing_gain, estimate_noise_model
+from moli.method.uncertainty.noise_model import _stabilizing_gain, estimate_noise_model
 
 from systems_util import innovations_record, kalman_gain, random_system, resonant_noise_system
 

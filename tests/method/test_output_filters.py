@@ -6,14 +6,14 @@ from hypothesis import given, settings, strategies as st
 
 import moli
 from moli.errors import DataError
-from moli.method.estimation import fit_batch
-from moli.method.filters import filter_divisors
-from moli.method.output_filters import tune_output_cutoffs
-from moli.method.observer_form import observer_form
-from moli.method.refinement import refine
-from moli.method.regression import RegressionCache
-from moli.method.scoring import FilterScorer
-from moli.method.tuning import default_omega, tune_filter
+from moli.method.least_squares.estimation import fit_batch
+from moli.method.structure.filters import filter_divisors
+from moli.method.tuning.output_filters import tune_output_cutoffs
+from moli.method.refinement.observer_form import observer_form
+from moli.method.refinement.levenberg_marquardt import refine
+from moli.method.least_squares.shared_factors import RegressionCache
+from moli.method.tuning.criterion import FilterScorer
+from moli.method.tuning.barycenter import default_omega, tune_filter
 
 
 def _slow_and_fast(seed: int, N: int = 600, noise: float = 0.2) -> np.ndarray:

@@ -5,7 +5,7 @@ import pytest
 import scipy.signal
 import scipy.stats
 
-from moli.method.paired_test import (BATCH_TIMES, MIN_BATCHES, PAIRED_BATCHES, correlation_time,
+from moli.method.selection.paired_test import (BATCH_TIMES, MIN_BATCHES, PAIRED_BATCHES, correlation_time,
                                      paired_difference)
 
 
@@ -74,7 +74,7 @@ def test_a_diverging_model_never_passes():
     # the order rule passes over it even where any finite loss would be negligible
     from types import SimpleNamespace
 
-    from moli.method.order_rules import select_by_shares
+    from moli.method.selection.order_rules import select_by_shares
 
     diverging = np.ones(100)
     diverging[40] = np.inf

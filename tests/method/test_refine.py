@@ -10,10 +10,10 @@ import scipy.signal
 
 import moli
 from moli.errors import OptionError
-from moli.method.observer_form import observer_form
-from moli.method.output_error import OutputErrorProblem
-from moli.method.order_rules import generic_candidate, polished, polished_if_clearly_better
-from moli.method.refinement import polish, refine, refine_each
+from moli.method.refinement.observer_form import observer_form
+from moli.method.refinement.output_error import OutputErrorProblem
+from moli.method.selection.order_rules import generic_candidate, polished, polished_if_clearly_better
+from moli.method.refinement.levenberg_marquardt import polish, refine, refine_each
 
 
 def _plant(seed=0):
@@ -31,8 +31,8 @@ def _record(D=None, noise=0.0, N=400, seed=1, x0=None):
 
 
 def _start(data, feedthrough=False):
-    search = moli.method.search.StructureSearch(
-        data, data, moli.method.tuning.default_omega(), "grid", feedthrough=feedthrough)
+    search = moli.method.search.greedy_path.StructureSearch(
+        data, data, moli.method.tuning.barycenter.default_omega(), "grid", feedthrough=feedthrough)
     return search.fit((2, 1)).model
 
 
@@ -296,7 +296,7 @@ def test_the_early_stop_stays_where_validation_does_not_clearly_prefer_the_optim
     # significance asked for: taking any gain at all, the optimum would replace it
     est = _record(noise=2.0, N=600, seed=4).remove_means()
     val = _record(noise=2.0, N=300, seed=104).remove_means()
-    search = moli.method.search.StructureSearch(est, val, moli.method.tuning.default_omega(), "grid")
+    search = moli.method.search.greedy_path.StructureSearch(est, val, moli.method.tuning.barycenter.default_omega(), "grid")
     fitted = search.fit((3, 1))
     early = refine(fitted.model, est).model
     step = dataclasses.replace(fitted, model=early, vaf=moli.compare(early, val).vaf)
@@ -354,7 +354,7 @@ def test_generic_candidate_only_where_the_selected_list_is_not_generic():
     data = _record(noise=0.1, N=600, seed=4)
     est, val = data.split(400)
     est, val = est.remove_means(), val.remove_means()
-    search = moli.method.search.StructureSearch(est, val, moli.method.tuning.default_omega(), "grid")
+    search = moli.method.search.greedy_path.StructureSearch(est, val, moli.method.tuning.barycenter.default_omega(), "grid")
 
     def free(step):
         model = refine(step.model, est, iterations=3).model

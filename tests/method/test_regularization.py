@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 import moli
-from moli.method.regularization import RELATIVE_WEIGHTS, ridge_gcv
+from moli.method.least_squares.regularization import RELATIVE_WEIGHTS, ridge_gcv
 from systems_util import plant_record
 
 

@@ -7,9 +7,9 @@ import pytest
 from scipy.signal import lfilter
 
 import moli
-from moli.method.refinement import refine
-from moli.method.regression import RegressionCache
-from moli.method.scoring import FilterScorer
+from moli.method.refinement.levenberg_marquardt import refine
+from moli.method.least_squares.shared_factors import RegressionCache
+from moli.method.tuning.criterion import FilterScorer
 
 from systems_util import generic_indices, random_system
 
@@ -228,7 +228,7 @@ def test_analyses_through_time_refuse_several_segments(analysis):
 
 
 def test_the_long_run_covariance_takes_no_lag_across_a_boundary():
-    from moli.method.covariance import sandwich_factor
+    from moli.method.least_squares.sandwich import sandwich_factor
 
     rng = np.random.default_rng(13)
     phis = [rng.standard_normal((90, 3)), rng.standard_normal((90, 2))]

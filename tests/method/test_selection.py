@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 import moli
-from moli.method.order_rules import select_order
-from moli.method.search import PathStep, StructureSearch, exhaustive, greedy_path
-from moli.method.tuning import default_omega
+from moli.method.selection.order_rules import select_order
+from moli.method.search.greedy_path import PathStep, StructureSearch, exhaustive, greedy_path
+from moli.method.tuning.barycenter import default_omega
 
 
 @pytest.fixture(scope="module")
@@ -26,14 +26,14 @@ def test_greedy_path_raises_one_index_per_step(search):
         diff = np.subtract(after.indices, before.indices)
         assert sorted(diff) == [0, 0, 1]
         # the kept list has the lowest J of the p candidates
-        rivals = [search.fit(c) for c in moli.method.structure.raised(before.indices)]
+        rivals = [search.fit(c) for c in moli.method.structure.indices.raised(before.indices)]
         assert after.J == min(r.J for r in rivals)
 
 
 def test_exhaustive_fits_every_list(search):
     steps = exhaustive(search, 5)
     assert len(steps) == comb(4, 2)
-    assert {st.indices for st in steps} == set(moli.method.structure.compositions(5, 3))
+    assert {st.indices for st in steps} == set(moli.method.structure.indices.compositions(5, 3))
 
 
 def _step(order, mean_vaf, stable=True):
@@ -146,7 +146,7 @@ def test_paired_order_rule_reaches_the_true_order_on_long_records():
 
 
 def test_paired_order_rule_is_the_best_model_when_nothing_ties():
-    from moli.method.order_rules import select_order_paired
+    from moli.method.selection.order_rules import select_order_paired
 
     est, val = moli.example_data(N=800, seed=3).split(500)
     result = moli.identify(est, val, nmax=6)
@@ -162,7 +162,7 @@ def _scored_step(model, order, validation):
 
 
 def test_a_bound_order_warns_only_where_it_clearly_beats_the_lower_ones():
-    from moli.method.selection_check import warn_if_at_bound
+    from moli.method.selection.checks import warn_if_at_bound
 
     # a lightly damped second-order plant seen through 5 % output noise
     rng = np.random.default_rng(0)

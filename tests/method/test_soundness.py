@@ -17,9 +17,9 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import moli
-from moli.method.refinement import refine
-from moli.method.refined_covariance import refined_covariance
-from moli.method.structure import generic_indices
+from moli.method.refinement.levenberg_marquardt import refine
+from moli.method.uncertainty.refined_covariance import refined_covariance
+from moli.method.structure.indices import generic_indices
 
 OMEGA = np.linspace(0.05, 3.0, 12)
 NOISE = 0.3          # against outputs of standard deviation 2.0 and 1.8

@@ -11,10 +11,10 @@ from hypothesis import strategies as st
 
 import moli
 from moli.errors import OptionError
-import moli.method.scoring
-from moli.method.regression import RegressionCache
-from moli.method.scoring import FilterScorer, error_ratio, score_lists
-from moli.method.tuning import default_omega, grid, tune_filter, tune_filters
+import moli.method.tuning.criterion
+from moli.method.least_squares.shared_factors import RegressionCache
+from moli.method.tuning.criterion import FilterScorer, error_ratio, score_lists
+from moli.method.tuning.barycenter import default_omega, grid, tune_filter, tune_filters
 
 
 def _random_system(n, p, m, seed, radius=0.9):
@@ -133,7 +133,7 @@ def test_stability_rule_equals_fit_score_then_worst_for_slow_poles():
 
 
 def test_initial_response_fits_a_free_response_exactly():
-    from moli.method.scoring import _initial_response
+    from moli.method.tuning.criterion import _initial_response
 
     A, B, C = _random_system(3, 2, 1, seed=4, radius=0.95)
     x0 = np.array([3.0, -2.0, 1.0])
@@ -289,8 +289,8 @@ def test_joint_tuning_gives_each_list_its_own_result(lists, method, feedthrough,
     alone = [tune_filter(sc, omega, method, 2, seed) for seed, sc in enumerate(scorers(RegressionCache(z, 3, feedthrough)))]
     # a batch limit of one value puts every list in a chunk of its own; the default joins
     # them all (5 lists of 6 candidates, 300 samples, 3 outputs: 27,000 values)
-    limit = 1 if chunked else moli.method.scoring.JOINT_BATCH_VALUES
-    with mock.patch.object(moli.method.scoring, "JOINT_BATCH_VALUES", limit):
+    limit = 1 if chunked else moli.method.tuning.criterion.JOINT_BATCH_VALUES
+    with mock.patch.object(moli.method.tuning.criterion, "JOINT_BATCH_VALUES", limit):
         joint = tune_filters(scorers(RegressionCache(z, 3, feedthrough)), omega, method, 2, range(len(lists)))
     for a, b in zip(alone, joint):
         # the same problems, stacked differently: LAPACK and the products work matrix by

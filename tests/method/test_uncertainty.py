@@ -9,9 +9,9 @@ import pytest
 
 import moli
 import moli.method.identification as identification
-from moli.method.covariance import _moving_sums, matrix_directions, sandwich_factor
-from moli.method.estimation import observer_form_matrices, output_regressors
-from moli.method.scoring import _realize_feedthrough
+from moli.method.least_squares.sandwich import _moving_sums, matrix_directions, sandwich_factor
+from moli.method.least_squares.estimation import observer_form_matrices, output_regressors
+from moli.method.tuning.criterion import _realize_feedthrough
 
 # A resonant SISO plant of order 2 (poles 0.8 exp(±0.4j), a zero at -0.5) and the
 # filter identify's J-tuning picks on its records (wc 0.43-0.51, zeta 0.65-0.73 on four

@@ -6,10 +6,10 @@ import pytest
 import moli
 from moli.errors import OptionError
 from moli.streaming.filter_bank import FilterBank
-from moli.method.filters import filter_polynomial
+from moli.method.structure.filters import filter_polynomial
 from moli.streaming.recursive import RecursiveMoli
 from moli.models.simulation import simulate_batch
-from moli.method.tuning import barycenter, grid
+from moli.method.tuning.barycenter import barycenter, grid
 
 from systems_util import plant_record
 

@@ -6,8 +6,8 @@ from hypothesis import given, settings, strategies as st
 
 import moli
 from moli.errors import DataError, FilterError, OptionError, StructureError
-from moli.method.estimation import filtered_regressors
-from moli.method.filters import divisors
+from moli.method.least_squares.estimation import filtered_regressors
+from moli.method.structure.filters import divisors
 from moli.streaming.recursive import RecursiveMoli
 from moli.models.simulation import simulate_batch
 

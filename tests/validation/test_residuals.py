@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 from scipy.special import chdtrc, ndtri
 
 import moli
-from moli.method.noise_model import estimate_noise_model
+from moli.method.uncertainty.noise_model import estimate_noise_model
 from moli.validation.residuals import _correlations
 
 from systems_util import innovations_record, random_system, resonant_noise_system

@@ -27,7 +27,7 @@ from ..data.outliers import flag_outliers, remove_outliers
 from ..errors import DataError, MoliError, OptionError
 from ..method.identification import IdentificationResult
 from ..method.options import PRESETS, IdentifyOptions
-from ..method.search import PathStep, StructureSearch, exhaustive
+from ..method.search.greedy_path import PathStep, StructureSearch, exhaustive
 from ..models.statespace import StateSpaceModel
 from ..models.storage import load_model
 from ..systems.plant import example_data

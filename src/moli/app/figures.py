@@ -15,7 +15,7 @@ from matplotlib.figure import Figure
 from ..data.display import figure_label
 from ..data.iodata import IOData
 from ..models.statespace import StateSpaceModel
-from ..method.search import PathStep
+from ..method.search.greedy_path import PathStep
 from ..validation.comparison import Comparison
 from ..validation.frequency import EmpiricalResponse, empirical_frequency_response
 from ..validation.residuals import ResidualAnalysis

@@ -17,7 +17,7 @@ from typing import Any, Callable, Iterator
 from tqdm import tqdm
 
 from ..method.options import IdentifyOptions
-from ..method.search import ScoredStep
+from ..method.search.greedy_path import ScoredStep
 
 __all__ = ["PathProgress", "Phases", "search_progress", "READING_SHOWN_AFTER"]
 

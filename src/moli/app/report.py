@@ -24,7 +24,7 @@ from ..data.files import file_sha256
 from ..data.iodata import IOData, longest_segment
 from ..errors import DataError
 from ..method.identification import IdentificationResult
-from ..method.search import PathStep
+from ..method.search.greedy_path import PathStep
 from ..validation.comparison import compare
 from ..validation.frequency import EmpiricalResponse, empirical_frequency_response
 from ..validation.residuals import SAMPLES_PER_LAG, ResidualAnalysis, residual_analysis
@@ -226,7 +226,7 @@ def write_report(
     directory : str or Path
         Created if missing; existing report files in it are overwritten.
     tried : sequence of PathStep, optional
-        Lists fitted besides the greedy path (e.g. :func:`moli.method.search.exhaustive`),
+        Lists fitted besides the greedy path (e.g. :func:`moli.method.search.greedy_path.exhaustive`),
         drawn as dots on the VAF-against-order figure.
     title : str
         Heading of the report.

@@ -28,7 +28,7 @@ from ..data.iodata import IOData
 from ..errors import DataError, OptionError
 from ..method.identification import IdentificationResult, identify
 from ..method.options import IdentifyOptions
-from ..method.warning_capture import thread_warnings
+from .warning_capture import thread_warnings
 from ..models.statespace import StateSpaceModel
 from ..validation.comparison import compare
 from .backends import NO_WORKER_TIMEOUT, run_calls

@@ -15,17 +15,17 @@ one-call entry point). :mod:`.continuous` is the same method in continuous time
 """
 
 from .continuous import ContinuousResult, ContinuousStep
-from .estimation import estimate, realize
-from .filters import divisor, divisors, filter_polynomial
+from .least_squares.estimation import estimate, realize
+from .structure.filters import divisor, divisors, filter_polynomial
 from .identification import IdentificationResult, identify
-from .noise_model import estimate_noise_model
+from .uncertainty.noise_model import estimate_noise_model
 from .options import IdentifyOptions
-from .prediction_error import prediction_error_refine
-from .reference_projection import ReferenceProjection, fit_projection
-from .refinement import RefineResult, refine, refine_each
-from .search import PathStep, exhaustive
-from .tuning import TuningResult, default_omega, tune_filter
-from .uncertainty import estimate_covariance
+from .refinement.prediction_error import prediction_error_refine
+from .closed_loop.reference_projection import ReferenceProjection, fit_projection
+from .refinement.levenberg_marquardt import RefineResult, refine, refine_each
+from .search.greedy_path import PathStep, exhaustive
+from .tuning.barycenter import TuningResult, default_omega, tune_filter
+from .uncertainty.matrix_covariance import estimate_covariance
 
 __all__ = [
     "estimate", "realize", "divisor", "divisors", "filter_polynomial", "IdentificationResult",

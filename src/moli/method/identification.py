@@ -16,23 +16,23 @@ from ..errors import ClosedLoopWarning, DataError, OptionError
 from ..models.statespace import StateSpaceModel
 from ..validation.comparison import compare, same_period
 from ..validation.feedback import feedback_check, usable_lags
-from .estimation import check_sample_count
-from .interruption import post_path_phases
-from .long_records import reestimate, search_window
-from .records import check_reach, check_scales, input_delays, long_segments, shifted_inputs, short_segments
-from .noise_model import estimate_noise_model
-from .options import IdentifyOptions
-from .reference_projection import ReferenceProjection, two_stage_records, without_reference
-from .prediction_error import prediction_error_refine
-from .refinement import MAX_RADIUS, refine_each
-from .refined_covariance import is_refined
+from .least_squares.estimation import check_sample_count
+from .pipeline.interruption import post_path_phases
+from .search.long_records import reestimate, search_window
+from .pipeline.records import check_reach, check_scales, input_delays, long_segments, shifted_inputs, short_segments
+from .uncertainty.noise_model import estimate_noise_model
+from .options.identify_options import IdentifyOptions
+from .closed_loop.reference_projection import ReferenceProjection, two_stage_records, without_reference
+from .refinement.prediction_error import prediction_error_refine
+from .refinement.levenberg_marquardt import MAX_RADIUS, refine_each
+from .uncertainty.refined_covariance import is_refined
 from .result import IdentificationResult
-from .order_rules import (clearly_better, generic_candidate, generic_orders_below, polished_if_clearly_better, select_order,
+from .selection.order_rules import (clearly_better, generic_candidate, generic_orders_below, polished_if_clearly_better, select_order,
                           select_order_paired, select_order_refined, siblings)
-from .search import PathStep, StructureSearch, greedy_path
-from .selection_check import warn_if_at_bound, warn_if_short_selection
-from .tuning import default_omega
-from .uncertainty import estimate_covariance
+from .search.greedy_path import PathStep, StructureSearch, greedy_path
+from .selection.checks import warn_if_at_bound, warn_if_short_selection
+from .tuning.barycenter import default_omega
+from .uncertainty.matrix_covariance import estimate_covariance
 from .continuous.identification import ContinuousResult, identify_continuous
 
 __all__ = ["IdentificationResult", "identify"]
@@ -241,7 +241,7 @@ def identify(
         return name
 
     unrefined, at_bound = list(path), replace(path[-1])    # at_bound: the path's own last least squares
-    # Ctrl-C after the path keeps the best complete model so far (moli.method.interruption)
+    # Ctrl-C after the path keeps the best complete model so far (moli.method.pipeline.interruption)
     phases = post_path_phases(opts, long_record=searched is not fitted, direct=loop == "direct")
     stage, skipped = phases[0], ()
     try:

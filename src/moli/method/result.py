@@ -8,8 +8,8 @@ import numpy as np
 
 from ..data.iodata import IOData
 from ..models.statespace import StateSpaceModel
-from .options import IdentifyOptions
-from .search import PathStep
+from .options.identify_options import IdentifyOptions
+from .search.greedy_path import PathStep
 
 __all__ = ["IdentificationResult"]
 

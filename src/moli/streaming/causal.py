@@ -2,7 +2,7 @@
 
 The regressors of an output with index ``l`` at time ``k`` are ``(q^i/alpha_j) z``,
 ``i = 0..l-1``, i.e. the delays ``1..l`` of ``base = lfilter(1, alpha_j, z)``
-(see :func:`moli.method.estimation.filtered_regressors`). Streaming them needs two pieces
+(see :func:`moli.method.least_squares.estimation.filtered_regressors`). Streaming them needs two pieces
 of state per filter: the ``lfilter`` state ``zi`` and the last ``l`` samples of
 ``base``. Feeding a record in chunks of any sizes gives the same regressors as
 filtering the whole record at once from the zero state.
@@ -98,7 +98,7 @@ class CausalRegressors:
         -------
         ndarray, shape (R, N, c * l)
             Column ``r * l + i`` holds channel ``r`` filtered by ``q^i / alpha_j``,
-            the layout of :func:`moli.method.estimation.filtered_regressors`.
+            the layout of :func:`moli.method.least_squares.estimation.filtered_regressors`.
         """
         N, c = z.shape
         l = self.degree

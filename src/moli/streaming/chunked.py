@@ -5,7 +5,7 @@ factor of its augmented regression ``[phi, y]``, updated by a QR of
 ``[R_prev; rows_chunk]`` (:class:`moli.streaming.sqrt_rls.SquareRootRls` with no prior and
 no forgetting). ``|Phi theta - y|^2 = |R11 theta - r12|^2 + r22^2`` and ``R11``
 has the column norms of ``Phi``, so solving the small triangular problem with
-:func:`moli.method.estimation.solve_batch` gives the whole-record least-squares solution
+:func:`moli.method.least_squares.estimation.solve_batch` gives the whole-record least-squares solution
 of :func:`moli.estimate` (up to round-off), never forming normal equations.
 Memory is constant: a few K x K factors plus one chunk.
 
@@ -25,7 +25,7 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import DataError, IllConditionedWarning, OptionError
-from ..method.estimation import COND_LIMIT, check_sample_count, realize, solve_batch
+from ..method.least_squares.estimation import COND_LIMIT, check_sample_count, realize, solve_batch
 from ..models.statespace import StateSpaceModel
 from .recursive import FixedFilterEstimator, checked_chunk
 

@@ -17,12 +17,12 @@ from typing import Sequence
 import numpy as np
 
 from ..errors import DataError, OptionError
-from ..method.filters import filter_divisors, filter_polynomial
+from ..method.structure.filters import filter_divisors, filter_polynomial
 from ..models.statespace import StateSpaceModel
 from .recursive import BankRls, check_options, checked_chunk
 from ..models.simulation import simulate_batch
-from ..method.structure import check_indices
-from ..method.tuning import barycenter, check_omega
+from ..method.structure.indices import check_indices
+from ..method.tuning.barycenter import barycenter, check_omega
 
 __all__ = ["FilterBank"]
 
@@ -35,7 +35,7 @@ class FilterBank:
     indices : sequence of int
         Observability indices, one per output.
     omega : array_like, shape (R, 2)
-        Candidate rows ``(wc, zeta)``, e.g. :func:`moli.method.tuning.default_omega`.
+        Candidate rows ``(wc, zeta)``, e.g. :func:`moli.method.tuning.barycenter.default_omega`.
         The bank holds ``R + 1`` filters: the barycenter candidate, then ``omega``.
     m : int
         Number of inputs.
@@ -146,7 +146,7 @@ class FilterBank:
         scored = y[self.burn_in :]
         with np.errstate(all="ignore"):
             ratio = np.var(scored[None] - yhat, axis=1) / np.var(scored, axis=0)
-        # unstable or useless models score 1, as in moli.method.tuning
+        # unstable or useless models score 1, as in moli.method.tuning.barycenter
         self.costs = np.where(np.isfinite(ratio), np.minimum(ratio, 1.0), 1.0).mean(axis=1)
         center = barycenter(self.etas, self.costs)
         self.etas[0] = center

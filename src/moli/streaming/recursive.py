@@ -4,7 +4,7 @@ Each output's parameters are estimated by recursive least squares on the causal
 MOLI regressors (docs/method.md §6), ``P_0 = p0 I``, ``theta_0 = 0``,
 output noise variance ``R2`` and an optional forgetting factor. Like
 :func:`moli.estimate`, the first ``max(indices)`` samples only charge the
-filters. The state-space model comes from :func:`moli.method.estimation.realize`.
+filters. The state-space model comes from :func:`moli.method.least_squares.estimation.realize`.
 
 Outputs whose indices are equal share the filter ``alpha_j`` and hence the
 regressors, so they share one square-root factor (see :mod:`moli.streaming.sqrt_rls`).
@@ -20,8 +20,8 @@ from .causal import CausalRegressors
 from ..data.arguments import integer, period
 from ..data.iodata import stack_signals
 from ..errors import DataError, OptionError
-from ..method.estimation import realize
-from ..method.filters import check_alpha, divisors
+from ..method.least_squares.estimation import realize
+from ..method.structure.filters import check_alpha, divisors
 from ..models.statespace import StateSpaceModel
 
 # A chunk's state map filters only the samples whose effect on the end state is above
@@ -31,7 +31,7 @@ from ..models.statespace import StateSpaceModel
 NEGLIGIBLE_RESPONSE = 1e-17
 REACH_START = 4096
 from .sqrt_rls import SquareRootRls
-from ..method.structure import Indices, check_indices
+from ..method.structure.indices import Indices, check_indices
 
 __all__ = [
     "check_options", "solve_triangular_batch", "BankRls", "FixedFilterEstimator",

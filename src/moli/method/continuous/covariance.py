@@ -16,10 +16,10 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg
 
-from ..covariance import check_rank, long_run_covariance, sandwich_root
-from ..estimation import observer_form_matrices
-from ..regression import quotient_map
-from ..structure import Indices
+from ..least_squares.sandwich import check_rank, long_run_covariance, sandwich_root
+from ..least_squares.estimation import observer_form_matrices
+from ..least_squares.shared_factors import quotient_map
+from ..structure.indices import Indices
 from .estimation import StampedRecord, model_part, observer_rows
 from .filters import unit_divisors
 

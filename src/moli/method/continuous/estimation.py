@@ -22,9 +22,9 @@ import scipy.linalg
 
 from ...data.iodata import IOData
 from ...errors import DataError
-from ..estimation import observer_form_matrices
-from ..regression import quotient_map, reduced_problems
-from ..structure import Indices
+from ..least_squares.estimation import observer_form_matrices
+from ..least_squares.shared_factors import quotient_map, reduced_problems
+from ..structure.indices import Indices
 from .filters import unit_divisors
 from ...models.propagation import propagate
 

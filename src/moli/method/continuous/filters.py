@@ -24,8 +24,8 @@ from __future__ import annotations
 import numpy as np
 
 from ...errors import FilterError
-from ..filters import monic_from_roots, select_groups
-from ..structure import Indices
+from ..structure.filters import monic_from_roots, select_groups
+from ..structure.indices import Indices
 
 __all__ = ["unit_roots", "unit_divisors", "continuous_grid", "ZETAS"]
 

@@ -12,8 +12,8 @@ import numpy as np
 from ...data.iodata import IOData
 from ...errors import DataError, OptionError, OrderBoundWarning
 from ...models.continuous import ContinuousModel
-from ..options import IdentifyOptions
-from ..order_rules import select_by_shares, select_order
+from ..options.identify_options import IdentifyOptions
+from ..selection.order_rules import select_by_shares, select_order
 from .covariance import covariance_factor
 from .estimation import stamped_record
 from .filters import continuous_grid

@@ -16,10 +16,10 @@ from typing import Callable
 import numpy as np
 
 from ...models.continuous import ContinuousModel
-from ..paired_test import error_shares
-from ..search import ScoredStep
-from ..structure import Indices, raised
-from ..tuning import barycenter
+from ..selection.paired_test import error_shares
+from ..search.greedy_path import ScoredStep
+from ..structure.indices import Indices, raised
+from ..tuning.barycenter import barycenter
 from .estimation import StampedRecord, filter_factor, fit_list, simulate_stamped, warm_up_rows
 from .filters import unit_divisors
 
@@ -47,7 +47,7 @@ class ContinuousStep(ScoredStep):
     seconds : float
     errors : ndarray, shape (N_val,)
         Squared validation errors per sample, in points of mean VAF (the paired rule,
-        :func:`moli.method.order_rules.select_by_shares`).
+        :func:`moli.method.selection.order_rules.select_by_shares`).
     thetas : list of ndarray
         Each output's least-squares parameters (docs/continuous.md §4).
     """

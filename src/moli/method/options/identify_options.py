@@ -1,0 +1,400 @@
+"""Every choice of an identification in one frozen, validated object.
+
+:class:`IdentifyOptions` is what :func:`moli.identify` runs with, what a saved model
+records and what ``moli fit --options FILE.json`` reads. The named presets are
+instances of it (:meth:`IdentifyOptions.paper`, ...): nothing is set behind the
+caller's back, and the repr shows every value.
+"""
+
+from __future__ import annotations
+
+import difflib
+from dataclasses import asdict, dataclass, fields, replace
+from typing import Any, Mapping
+
+from ...errors import OptionError
+from ...validation.comparison import X0_CHOICES
+from .value_checks import (
+    check_choice, check_delays, check_flag, check_names, check_integer, check_number, check_omega_pairs, check_ridges,
+    option_error,
+)
+from ..least_squares.shared_factors import FEEDTHROUGH_CHOICES
+from ..least_squares.regularization import REGULARIZATIONS
+from ..tuning.criterion import MAX_TREND_DEGREE
+from ..tuning.barycenter import GRIDS, TUNING_METHODS
+
+__all__ = ["IdentifyOptions"]
+
+REFINE_CHOICES = ("none", "selected", "path", "guarded")
+# What the earlier presets share and the default no longer does (chosen on the
+# evaporator windows; docs/accuracy.md shows what they cost elsewhere).
+EVAPORATOR_CHOICES = {"order_tolerance": 1.0, "filter_grid": "paper", "refine": "none", "refine_ridge": 1.0}
+ORDER_RULES = ("tolerance", "paired", "refined")
+# The fast preset: at most five Levenberg-Marquardt steps per refinement, the cheapest
+# search within 0.3 points of the default on every seed of the generalization benchmark,
+# no orders below the selected one, and the selected model's early stop kept
+# (docs/accuracy.md, "The fast preset").
+FAST_CHOICES = {"refine_iterations": 5, "lower_orders": False, "polish_selected": False}
+PRESETS = ("default", "fast", "improved", "bounded", "paper")
+TIMES = ("discrete", "continuous")
+INPUT_HOLDS = ("zoh", "foh")
+CLOSED_LOOP_METHODS = ("open", "two-stage", "direct")
+# Shortest search window: a few hundred samples still rank the filters and lists of
+# small plants; below that a window says too little about the record.
+MIN_SEARCH_SAMPLES = 500
+
+
+@dataclass(frozen=True)
+class IdentifyOptions:
+    """Every choice of an identification (see docs/method.md for the method).
+
+    Build one with keywords (every field is checked here, before any work), take a
+    named preset (:meth:`default`, :meth:`fast`, :meth:`improved`, :meth:`bounded`,
+    :meth:`paper`), or change a few fields of one with :meth:`replace`. The defaults were
+    chosen on the generalization benchmark (docs/accuracy.md): the lowest order within 0.1
+    point of the best validation fit, the wide filter grid, and output-error refinement kept
+    where it raises the validation fit.
+
+    Parameters
+    ----------
+    nmax : int, optional
+        Largest McMillan degree on the greedy path; None: ``max(10, p + 4)``.
+    order_rule : {"tolerance", "paired", "refined"}, optional
+        How the order is picked on the validation record; None (the default) means
+        "tolerance" in discrete time and "paired" in continuous time and for the
+        two-stage closed-loop method (docs/continuous.md §5 and docs/closed_loop.md §4 give
+        the measurements behind each): the lowest order within
+        ``order_tolerance`` points of the best mean VAF; the lowest order whose
+        validation error is within one paired standard error of the best model's
+        (:func:`moli.method.selection.order_rules.select_order_paired`); or the same test with each
+        order judged by the best refinement of the lists the greedy step compared there
+        (:func:`moli.method.selection.order_rules.select_order_refined`, docs/method.md §5; the
+        refinements judge the orders whatever ``refine`` does with the selected model).
+    order : int, optional
+        A fixed order: the path runs up to it (or to ``nmax``) and the model of this
+        order is selected instead of applying the order rule; at least ``p``, at most
+        ``nmax``. None: the order rule chooses.
+    order_tolerance : float, default 0.1
+        Points of mean validation VAF of the "tolerance" rule (0: the best order). The
+        default 0.1 keeps orders that buy less than a tenth of a point out of the model
+        (chosen on the generalization benchmark's seed 0, confirmed on seeds 1 and 2:
+        docs/accuracy.md).
+    order_errors : float, default 1.0
+        Paired standard errors of tolerance of the "paired" and "refined" rules (0: the
+        best order; larger: more parsimony).
+    omega : sequence of (wc, zeta), optional
+        Filter candidates, wc in rad per time unit of ``Ts``; None: the ``filter_grid``
+        family scaled to ``Ts`` (:func:`moli.method.tuning.barycenter.default_omega`).
+    filter_grid : {"wide", "paper", "damped", "wide3", "wider", "widez"}, default "wide"
+        The family of filter candidates when ``omega`` is None
+        (:func:`moli.method.tuning.barycenter.default_omega`).
+    tuning : {"grid", "random", "zoom"}, default "grid"
+        Filter search: one barycenter over ``omega``, the paper's randomized
+        barycenter, or a grid refined around its best point.
+    iterations : int, default 5
+        Steps of the randomized or zoom filter search.
+    s : float, default 2.0
+        Root spacing factor of the filter polynomial (faster roots are powers ``z**s``).
+    seed : int, default 0
+        Seed of the randomized filter search.
+    output_filters : bool, default True
+        Re-tune each output's filter cutoff of every path model on J (docs/method.md §11).
+    feedthrough : {True, False, "auto"}, default "auto"
+        Direct feedthrough ``D``; "auto" keeps it per output where a nested F-test on
+        the estimation data finds it significant (docs/method.md §8).
+    max_radius : float, "auto" or None, default 1.0
+        Filter candidates whose model has a pole of this modulus or more score the
+        worst J; "auto": ``exp(-10/N)``; None (or "none"): no bound (docs/method.md §9).
+    criterion_x0 : {"zero", "estimate"}, default "zero"
+        Initial state of the estimation-data simulations behind J.
+    trend_degree : int, default 2
+        J ignores the polynomial trend of this degree in each output's simulation
+        error, 0 to 5 (docs/method.md §10).
+    refine : {"none", "selected", "path", "guarded"}, default "guarded"
+        Output-error refinement of the selected model, or of every path model before
+        the order rule (docs/method.md §12); "guarded": the selected model's refinement,
+        kept only where it raises the mean validation VAF; another list the greedy step
+        compared at that order, where its refinement is better by a paired standard error;
+        the order's generic list refined to its optimum, where its validation fit is
+        within ``order_tolerance`` of the model so far; then the generic list of each order
+        below, one order at a time, while it fits as well (``lower_orders``; not below a
+        fixed ``order``). True and False mean "selected" and "none".
+    lower_orders : bool, default True
+        With "guarded": also try the generic list of each order below the selected one,
+        refined to its optimum, while its validation fit is within ``order_tolerance`` of
+        the model so far (docs/method.md §12, "The orders below").
+    polish_selected : bool, default True
+        With "guarded": continue the selected model's free refinement to its optimum and keep
+        that where it fits validation better by more than two paired standard errors
+        (docs/method.md §12, "The selected model's optimum").
+    refine_iterations : int, default 10
+        Most Levenberg-Marquardt steps of each refinement compared on validation (the
+        generic list's then runs on to its optimum, docs/method.md §12).
+    refine_ridge : float or tuple of float, default (0.0, 1.0)
+        Penalty of the refinement toward the MOLI estimate, relative to each
+        parameter's curvature (docs/method.md §12); 0: free refinement. Several values:
+        "guarded" refines the MOLI estimate once with each and keeps the one that raises
+        the mean validation VAF most (or none); "selected" and "path" use the first. The
+        earlier presets use 1.
+    center : bool, default True
+        Remove the estimation record's means from both records (the model stores them).
+    x0 : {"zero", "estimate"}, default "zero"
+        Initial state of the validation simulations of the order rule.
+    noise_model : bool, default True
+        Attach a noise model (Kalman gain ``K`` and innovation covariance) to the
+        selected model, estimated from its residuals on the estimation record
+        (docs/noise_model.md); it leaves ``A, B, C, D`` and the path unchanged.
+    regularization : {"none", "gcv"}, default "none"
+        Plain least squares for every estimate, or ridge with the weight chosen per
+        output by generalized cross-validation (docs/method.md §16; docs/accuracy.md
+        shows it does not raise the fit on fresh data across the benchmark).
+    delays : int, sequence of int or "auto", default 0
+        Dead time of each input in samples (one int: every input): the model is
+        estimated on the shifted inputs and carries them (``model.input_delays``).
+        "auto": per input, the smallest over the outputs of
+        :func:`moli.estimate_delays` on the estimation record (docs/diagnostics.md §3).
+    search_samples : int or None, default 32768
+        On a longer estimation record, the filter tuning, the greedy path, the
+        refinement and the noise model run on its first ``search_samples`` samples, and
+        the selected list is re-estimated on the whole record (docs/method.md §15);
+        None searches the whole record however long. At least
+        :data:`MIN_SEARCH_SAMPLES`.
+    time : {"discrete", "continuous"}, default "discrete"
+        A sampled model, or ``dx/dt = A x + B u`` identified directly from the record's
+        time stamps, regular or not (docs/continuous.md): ``omega`` is then in rad per
+        time unit of the stamps, the order rules "tolerance" and "paired" apply, and
+        the feedthrough, refinement, noise model, per-output filters, delays and
+        ``search_samples`` do not.
+    input_hold : {"zoh", "foh"}, default "zoh"
+        Continuous time: the input between samples, held or linear (the outputs are
+        taken as linear between samples).
+    reference : sequence of str, optional
+        Names of input channels of the records that are logged references (set-points
+        of the loops), not plant inputs: the model has the other inputs. They select the
+        two-stage closed-loop method unless ``closed_loop`` says otherwise
+        (docs/closed_loop.md).
+    closed_loop : {"open", "two-stage", "direct"}, optional
+        How a record taken under feedback is identified (docs/closed_loop.md): as if the
+        loop were open; by the two-stage method (the part of each input that the
+        ``reference`` explains replaces the input); or by the direct prediction-error
+        method (the model and its Kalman gain jointly). None (the default): "two-stage"
+        when a ``reference`` is named, else "open", which warns when the record looks
+        closed-loop.
+
+    Examples
+    --------
+    >>> opts = IdentifyOptions(nmax=8)
+    >>> opts.nmax, opts.feedthrough
+    (8, 'auto')
+    >>> IdentifyOptions.paper().tuning
+    'random'
+    >>> IdentifyOptions.from_dict(opts.to_dict()) == opts
+    True
+    """
+
+    nmax: int | None = None
+    order_rule: str | None = None
+    order: int | None = None
+    order_tolerance: float = 0.1
+    order_errors: float = 1.0
+    omega: tuple[tuple[float, float], ...] | None = None
+    filter_grid: str = "wide"
+    tuning: str = "grid"
+    iterations: int = 5
+    s: float = 2.0
+    seed: int = 0
+    output_filters: bool = True
+    feedthrough: bool | str = "auto"
+    max_radius: float | str | None = 1.0
+    criterion_x0: str = "zero"
+    trend_degree: int = 2
+    refine: str = "guarded"
+    lower_orders: bool = True
+    polish_selected: bool = True
+    refine_iterations: int = 10
+    refine_ridge: float | tuple[float, ...] = (0.0, 1.0)
+    center: bool = True
+    x0: str = "zero"
+    noise_model: bool = True
+    regularization: str = "none"
+    delays: int | tuple[int, ...] | str = 0
+    search_samples: int | None = 2**15
+    time: str = "discrete"
+    input_hold: str = "zoh"
+    reference: tuple[str, ...] | None = None
+    closed_loop: str | None = None
+
+    def __post_init__(self) -> None:
+        radius = self.max_radius
+        if radius == "none" or radius is None:
+            radius = None
+        elif radius != "auto":
+            radius = check_number("max_radius", radius, "'auto', None or a number in (0, 1]",
+                             lambda r: 0 < r <= 1)
+        refine = {True: "selected", False: "none"}.get(self.refine, self.refine) \
+            if isinstance(self.refine, bool) else self.refine
+        checked = {
+            "nmax": None if self.nmax is None else check_integer("nmax", self.nmax, 1),
+            "order_rule": None if self.order_rule is None else check_choice("order_rule", self.order_rule, ORDER_RULES),
+            "order": None if self.order is None else check_integer("order", self.order, 1),
+            "order_errors": check_number("order_errors", self.order_errors,
+                                    "a number >= 0 (paired standard errors)", lambda z: z >= 0),
+            "order_tolerance": check_number("order_tolerance", self.order_tolerance,
+                                       "a number >= 0 (points of VAF)", lambda t: t >= 0),
+            "omega": check_omega_pairs(self.omega),
+            "filter_grid": check_choice("filter_grid", self.filter_grid, tuple(GRIDS)),
+            "tuning": check_choice("tuning", self.tuning, TUNING_METHODS),
+            "iterations": check_integer("iterations", self.iterations, 1),
+            "s": check_number("s", self.s, "a number > 1", lambda s: s > 1),
+            "seed": check_integer("seed", self.seed, 0),
+            "output_filters": check_flag("output_filters", self.output_filters),
+            "feedthrough": check_choice("feedthrough", self.feedthrough, FEEDTHROUGH_CHOICES),
+            "max_radius": radius,
+            "criterion_x0": check_choice("criterion_x0", self.criterion_x0, X0_CHOICES),
+            "trend_degree": check_integer("trend_degree", self.trend_degree, 0, MAX_TREND_DEGREE),
+            "refine": check_choice("refine", refine, REFINE_CHOICES),
+            "lower_orders": check_flag("lower_orders", self.lower_orders),
+            "polish_selected": check_flag("polish_selected", self.polish_selected),
+            "refine_iterations": check_integer("refine_iterations", self.refine_iterations, 1),
+            "refine_ridge": check_ridges(self.refine_ridge),
+            "center": check_flag("center", self.center),
+            "x0": check_choice("x0", self.x0, X0_CHOICES),
+            "noise_model": check_flag("noise_model", self.noise_model),
+            "regularization": check_choice("regularization", self.regularization, REGULARIZATIONS),
+            "delays": check_delays(self.delays),
+            "search_samples": None if self.search_samples is None else check_integer(
+                "search_samples", self.search_samples, MIN_SEARCH_SAMPLES),
+            "time": check_choice("time", self.time, TIMES),
+            "input_hold": check_choice("input_hold", self.input_hold, INPUT_HOLDS),
+            "reference": check_names("reference", self.reference),
+            "closed_loop": None if self.closed_loop is None else check_choice(
+                "closed_loop", self.closed_loop, CLOSED_LOOP_METHODS),
+        }
+        if checked["closed_loop"] == "two-stage" and checked["reference"] is None:
+            raise option_error("closed_loop", "'open' or 'direct' without a reference (the two-stage method "
+                               "needs reference=[names of the reference channels])", self.closed_loop)
+        if checked["order"] is not None and checked["nmax"] is not None and checked["order"] > checked["nmax"]:
+            raise option_error("order", f"at most nmax = {checked['nmax']} (the end of the path)", self.order)
+        for name, value in checked.items():
+            object.__setattr__(self, name, value)
+
+    def path_end(self, p: int) -> int:
+        """The order the greedy path runs to for ``p`` outputs: ``nmax``, else ``order``,
+        else ``max(10, p + 4)``."""
+        if self.nmax is not None:
+            return self.nmax
+        return self.order if self.order is not None else max(10, p + 4)
+
+    @classmethod
+    def default(cls, **changes: Any) -> "IdentifyOptions":
+        """The defaults (docs/accuracy.md): the lowest order within 0.1 point of the best
+        validation fit, the wide filter grid, guarded refinement (free and with a ridge,
+        the better on validation), and the improved preset's other choices."""
+        return cls(**changes)
+
+    @classmethod
+    def fast(cls, **changes: Any) -> "IdentifyOptions":
+        """The default search made cheaper at a small, measured cost in fit.
+
+        Each refinement of the guarded refinement stops after five Levenberg-Marquardt steps
+        instead of ten (the generic list of the selected order still runs on to its optimum),
+        the orders below the selected one are not tried (``lower_orders=False``) and the
+        selected model keeps its early stop (``polish_selected=False``); every other choice is
+        the default's, the noise model and its bands included. Its mean validation VAF, paired
+        over the 119 cases of the generalization benchmark, is 0.05, 0.27 and 0.14 points below
+        the default's on seeds 0, 1 and 2, within the 0.3 points a preset may lose, at 0.6 of
+        the default's seconds per case (docs/accuracy.md, "The fast preset"; with the orders
+        below it lost 0.13 on seed 0 at 0.94 of the time; with the selected model's optimum it
+        lost 0.00, 0.25 and 0.09 at 0.62-0.77 of the time).
+        Five steps: seed 0 first chose two (0.77 of the time), which lost 0.36 points on seed
+        1; five was the next candidate of seed 0. Smaller filter grids were
+        cheaper but lost a DaISy record by tens of points; refining with the ridge of 1 alone
+        left the gain bands too narrow (with the ridge's penalty then in their covariance).
+
+        Parameters
+        ----------
+        **changes
+            Fields of :class:`IdentifyOptions` that replace the preset's values.
+
+        Returns
+        -------
+        IdentifyOptions
+            The default options with ``refine_iterations=5``, ``lower_orders=False`` and
+            ``polish_selected=False``, then ``changes``.
+
+        Examples
+        --------
+        >>> IdentifyOptions.fast().refine_iterations
+        5
+        >>> IdentifyOptions.fast(nmax=8).refine
+        'guarded'
+        """
+        return cls(**{**FAST_CHOICES, **changes})
+
+    @classmethod
+    def improved(cls, **changes: Any) -> "IdentifyOptions":
+        """The earlier default, chosen on the evaporator windows: the paper's 18-point
+        grid, lowest order within 1 point of the best, no refinement; "auto"
+        feedthrough, unstable candidates scored worst, J blind to a quadratic drift,
+        per-output filters."""
+        return cls(**{**EVAPORATOR_CHOICES, **changes})
+
+    @classmethod
+    def bounded(cls, **changes: Any) -> "IdentifyOptions":
+        """The improved preset with candidates whose modes are slower than a tenth of the
+        record ruled out, ``s = 3``, the paper's J, one filter shared by the outputs."""
+        return cls(**{**EVAPORATOR_CHOICES, "s": 3.0, "max_radius": "auto", "trend_degree": 0,
+                      "output_filters": False, **changes})
+
+    @classmethod
+    def paper(cls, **changes: Any) -> "IdentifyOptions":
+        """The paper's MOLI-ZOFT: its grid, randomized barycenter, ``s = 2``, no
+        feedthrough, no stability bound, the paper's J, one shared filter, no
+        refinement, lowest order within 1 point of the best."""
+        return cls(**{**EVAPORATOR_CHOICES, "tuning": "random", "feedthrough": False,
+                      "max_radius": None, "trend_degree": 0, "output_filters": False, **changes})
+
+    @classmethod
+    def preset(cls, name: str, **changes: Any) -> "IdentifyOptions":
+        """The named preset (one of :data:`PRESETS`) with ``changes`` applied."""
+        if name not in PRESETS:
+            raise OptionError(f"preset must be one of {PRESETS}, got {name!r}")
+        return getattr(cls, name)(**_known(changes))
+
+    def replace(self, **changes: Any) -> "IdentifyOptions":
+        """A copy with some fields changed (checked like the constructor)."""
+        return replace(self, **_known(changes))
+
+    def to_dict(self) -> dict[str, Any]:
+        """Plain JSON types: ``json.dumps(opts.to_dict())`` works."""
+        out = asdict(self)
+        if self.omega is not None:
+            out["omega"] = [list(pair) for pair in self.omega]
+        for name in ("delays", "reference"):
+            if isinstance(out[name], tuple):
+                out[name] = list(out[name])
+        return out
+
+    @classmethod
+    def from_dict(cls, content: Mapping[str, Any]) -> "IdentifyOptions":
+        """Options from :meth:`to_dict` output (or a JSON file's content).
+
+        Missing fields take their defaults; an unknown one is an error that suggests
+        the closest field.
+        """
+        if not isinstance(content, Mapping):
+            raise OptionError(f"options must be a mapping of field names to values, got {type(content).__name__}")
+        return cls(**_known(dict(content)))
+
+
+FIELDS = tuple(f.name for f in fields(IdentifyOptions))
+
+
+def _known(changes: Mapping[str, Any]) -> dict[str, Any]:
+    """``changes`` unchanged, or an error naming the first unknown field and the closest one."""
+    for name in changes:
+        if name not in FIELDS:
+            close = difflib.get_close_matches(str(name), FIELDS, n=1)
+            hint = f"; did you mean {close[0]!r}?" if close else f"; the options are {', '.join(FIELDS)}"
+            raise OptionError(f"unknown option {name!r}{hint}")
+    return dict(changes)

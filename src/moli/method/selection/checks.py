@@ -1,0 +1,175 @@
+"""What the validation scores that chose the order can and cannot say.
+
+The order rule ranks the path's models by their validation scores. A record of a few
+dozen samples still yields a path and a "best" order, and nothing in the scores says
+that they rest on too few samples: :func:`warn_if_short_selection` says so. An order at
+the search's bound may call for a higher one, but only where the bound order wins by more
+than the validation record's chance: :func:`warn_if_at_bound`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Sequence
+
+import numpy as np
+
+from ...data.iodata import IOData
+from ...errors import MoliError, OrderBoundWarning, ShortValidationWarning
+from .order_rules import RefineSteps, clearly_better, refined_as
+from ..uncertainty.refined_covariance import is_refined
+from ..structure.rows import parameter_counts
+from ..search.greedy_path import PathStep, StructureSearch, next_step
+
+__all__ = ["SAMPLES_PER_PARAMETER", "BOUND_Z", "selection_samples_needed", "warn_if_short_selection",
+           "warn_if_at_bound"]
+
+# A rule of thumb, not a test: the order rule compares validation VAFs that differ by a
+# point or two between neighbouring orders, and a VAF scored on N samples moves by about
+# (100 - VAF) * sqrt(2 / N) points from one noise realisation to the next (the relative
+# standard error of a variance from N white samples), i.e. 2.5 points at VAF 80 and
+# N = 130. Ten samples per parameter of the largest model compared (per output, where
+# each least-squares problem lives) keeps that below the differences the rule acts on
+# for the usual path (3x3, nmax 10: about 260 samples); the common least-squares rule
+# of ten observations per unknown says the same.
+SAMPLES_PER_PARAMETER = 10
+# Paired standard errors by which the model at the search's bound must beat every lower
+# order of the path before the run says a higher order may fit better (one-sided, about
+# 2 % by chance where the lower order is as good).
+BOUND_Z = 2.0
+
+
+def selection_samples_needed(path: Sequence[PathStep], m: int) -> int:
+    """Validation samples the order rule needs to tell the path's orders apart.
+
+    Parameters
+    ----------
+    path : sequence of PathStep
+        The greedy path (its lists of observability indices).
+    m : int
+        Number of inputs.
+
+    Returns
+    -------
+    int
+        ``SAMPLES_PER_PARAMETER`` times the largest per-output parameter count on the path.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> selection_samples_needed([SimpleNamespace(indices=(1, 1)), SimpleNamespace(indices=(2, 1))], 1)
+    60
+    """
+    most = max(int(parameter_counts(step.indices, m).max()) for step in path)
+    return SAMPLES_PER_PARAMETER * most
+
+
+def warn_if_short_selection(path: Sequence[PathStep], validation_samples: int, m: int,
+                            stacklevel: int = 2) -> None:
+    """Issue a :class:`ShortValidationWarning` when the order was chosen on too few samples.
+
+    Parameters
+    ----------
+    path : sequence of PathStep
+    validation_samples : int
+        Samples of the validation part that scored the path.
+    m : int
+        Number of inputs.
+    stacklevel : int
+        As for :func:`warnings.warn`, counted from the caller.
+    """
+    need = selection_samples_needed(path, m)
+    if len(path) > 1 and validation_samples < need:
+        warnings.warn(
+            f"the order was chosen on {validation_samples} validation samples, fewer than the "
+            f"{need} that tell the path's orders apart ({SAMPLES_PER_PARAMETER} per parameter of "
+            f"its largest model, {need // SAMPLES_PER_PARAMETER} per output), so the choice of order "
+            "is uncertain; give a longer record or more validation data, or fix the order (order=..., moli fit --order)",
+            ShortValidationWarning, stacklevel=stacklevel + 1,
+        )
+
+
+def _next_order_fits_better(beyond: tuple[StructureSearch, PathStep, PathStep, RefineSteps | None, float],
+                            x0: str) -> tuple[bool, PathStep | None]:
+    """Whether the path's next step clearly beats its least squares at the bound and the model
+    returned (refined as that model was), and the step; (True, None) where the record allows no
+    higher list."""
+    search, last, returned, refine, max_radius = beyond
+    with warnings.catch_warnings():
+        # a list above the path: its least squares may be unstable, as on the path itself
+        warnings.simplefilter("ignore", RuntimeWarning)
+        above = next_step(search, last)
+        if above is None:
+            return True, None
+        if not clearly_better(above, last, search.validation, x0, BOUND_Z):
+            return False, above
+        rival = above
+        if refine is not None and is_refined(returned.model):
+            try:
+                rival = refined_as(returned.model, refine, search.estimation, search.validation, x0, max_radius)(above)
+            except (MoliError, np.linalg.LinAlgError):
+                pass
+    return clearly_better(rival, returned, search.validation, x0, BOUND_Z), above
+
+
+def warn_if_at_bound(path: Sequence[PathStep], selected: int, nmax: int, validation: IOData, x0: str = "zero",
+                     beyond: tuple[StructureSearch, PathStep, PathStep, RefineSteps | None, float] | None = None,
+                     stacklevel: int = 2) -> None:
+    """Issue an :class:`OrderBoundWarning` when the selected order is the search's bound
+    ``nmax`` and beats the best lower order of ``path`` by more than :data:`BOUND_Z` paired
+    standard errors on ``validation`` (:func:`moli.method.selection.order_rules.clearly_better`), and,
+    with ``beyond``, the path's step one order above the bound beats its step at the bound by
+    as much, and (refined as the selected model was) the selected model too.
+
+    A bound order that wins by less than the validation record's chance says nothing about
+    higher ones; one that clearly wins may (under strong output noise that is often the
+    least-squares path buying back its bias with each state, docs/accuracy.md), and the
+    path's next step says whether it goes on doing so.
+
+    Parameters
+    ----------
+    path : sequence of PathStep
+    selected : int
+        Position of the selected model in ``path``.
+    nmax : int
+        The search's bound.
+    validation : IOData
+        The record the path's VAFs were computed on.
+    x0 : {"zero", "estimate"}
+        Initial state of the validation simulations.
+    beyond : (StructureSearch, PathStep, PathStep, callable or None, float), optional
+        The search, the path's least-squares step at the bound as the search fitted it, the
+        selected step as it is returned (without input delays), the search's refinement
+        (``refine(step, ridges)``, the refined steps; None without refinement) and the pole
+        radius bound of its steps. The greedy step from the bound's
+        (:func:`moli.method.search.greedy_path.next_step`) is fitted only where the rest would warn; all are
+        scored on the search's own validation record (with its inputs shifted by any delays, as
+        they were fitted). Nothing is said where that step does not clearly beat the bound's
+        least squares, or where it (refined, when the selected model is a refinement) does not
+        clearly beat the selected model: a higher order that fits no better than the model
+        returned gives no reason to raise the bound. Where the record allows no higher list,
+        the warning stands on the lower orders alone; where Ctrl-C stops this check, nothing is
+        said (the identification's result is kept).
+    stacklevel : int
+        As for :func:`warnings.warn`, counted from the caller.
+    """
+    chosen = path[selected]
+    lower = [step for step in path if step.order < chosen.order and (step.stable or not chosen.stable)]
+    if chosen.order < nmax or (lower and not clearly_better(chosen, max(lower, key=lambda step: step.mean_vaf),
+                                                              validation, x0, BOUND_Z)):
+        return
+    above = None
+    if beyond is not None:
+        try:
+            better, above = _next_order_fits_better(beyond, x0)
+        except KeyboardInterrupt:       # Ctrl-C during this check: the result is kept, and nothing said
+            return
+        if not better:
+            return
+    still = "" if above is None else f"; the path's order {above.order} fits it clearly better still"
+    warnings.warn(
+        f"the selected order {chosen.order} is the search's bound nmax = {nmax} and fits the "
+        f"validation data clearly better than every lower order{still}: a higher order may fit better; "
+        f"raise it with nmax=... (moli fit --nmax)",
+        OrderBoundWarning, stacklevel=stacklevel + 1,
+    )
