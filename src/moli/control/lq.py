@@ -274,6 +274,7 @@ def lq_servo(
     observer_poles: Sequence[complex] | None = None,
     observer_bandwidth: float = 12.0,
     u_limits: object = (-2.5, 2.5),
+    *,
     rate_limits: object = None,
     pairing: Sequence[int] | None = None,
 ) -> ServoController:

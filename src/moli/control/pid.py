@@ -92,7 +92,7 @@ class DecentralizedPID:
 
 
 def _siso_cost(
-    params: np.ndarray, A: np.ndarray, b: np.ndarray, c: np.ndarray, gain: float, Ts: float, N: int
+    params: np.ndarray, A: np.ndarray, b: np.ndarray, c: np.ndarray, gain: float, Ts: float, *, N: int
 ) -> float:
     """ITAE of a unit set-point step of one loop on a linear channel, plus a move penalty.
 
@@ -156,7 +156,7 @@ def tune_pid(model: StateSpaceModel, output: int, input: int, horizon: float = 3
     sign = np.sign(gain)
     N = int(round(horizon / model.Ts))
     res = minimize(
-        lambda v: _siso_cost(sign * v, model.A, b, c, gain, model.Ts, N), sign * start,
+        lambda v: _siso_cost(sign * v, model.A, b, c, gain, model.Ts, N=N), sign * start,
         method="Nelder-Mead", bounds=[(0.0, 20.0)] * 3, options={"xatol": 1e-3, "fatol": 1e-4},
     )
     kp, ki, kd = sign * res.x

@@ -20,6 +20,7 @@ def random_binary_signal(
     levels: object = (-1.0, 1.0),
     seed: int = 0,
     switch_within: int | None = None,
+    *,
     max_draws: int = 1000,
 ) -> np.ndarray:
     """Random binary ("telegraph") signals with a given mean time between switches.

@@ -244,7 +244,7 @@ class ContinuousModel(Dimensions):
             Frequencies in rad per time unit.
         """
         w = check_omega(omega)
-        return frequency_response(self.A, self.B, self.C, self.D, 1j * w, w, self.input_delays)
+        return frequency_response(self.A, self.B, self.C, self.D, 1j * w, w, delays=self.input_delays)
 
     def to_discrete(self, Ts: float, method: str = "zoh") -> StateSpaceModel:
         """The sampled model at period ``Ts`` (see :meth:`StateSpaceModel.from_continuous`).

@@ -31,7 +31,7 @@ def check_omega(omega: object) -> np.ndarray:
 
 def frequency_response(
     A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, points: np.ndarray,
-    omega: np.ndarray, delays: Sequence[float] | None = None,
+    omega: np.ndarray, *, delays: Sequence[float] | None = None,
 ) -> np.ndarray:
     """``C (s I - A)^-1 B + D`` at the complex points ``s`` (``points``), one per ``omega``.
 

@@ -98,7 +98,7 @@ def propagate(F: np.ndarray, G: np.ndarray, times: np.ndarray, signal: np.ndarra
         return _sum_constant(Phi, np.concatenate([first[:, None], drive], axis=1)).transpose(1, 0, 2)
     values, vectors = np.linalg.eig(F)
     if np.linalg.cond(vectors) <= MODAL_CONDITION:
-        return _modal(values, vectors, G, steps, signal[:-1], slope, first)
+        return _modal(values, vectors, G, steps, signal[:-1], slope, first=first)
     Phi, gamma0, gamma1 = interval_maps(F, G, steps)
     drive = gamma0 @ signal[:-1] + gamma1 @ slope                                 # (K, n, c)
     return _sum_varying(np.concatenate([np.zeros((1, n, n)), Phi]), np.concatenate([first[None], drive]))
@@ -144,7 +144,7 @@ def _phi_functions(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _modal(values: np.ndarray, vectors: np.ndarray, G: np.ndarray, steps: np.ndarray,
-           held: np.ndarray, slope: np.ndarray, first: np.ndarray) -> np.ndarray:
+           held: np.ndarray, slope: np.ndarray, *, first: np.ndarray) -> np.ndarray:
     """The varying recursion in ``F``'s eigenvector coordinates: each mode a scalar one."""
     x = values[:, None] * steps[None, :]                                            # (n, K)
     phi1, phi2 = _phi_functions(x)

@@ -80,6 +80,7 @@ class StateSpaceModel(Dimensions):
         C: object,
         D: object | None = None,
         Ts: float = 1.0,
+        *,
         output_names: Sequence[str] | None = None,
         input_names: Sequence[str] | None = None,
         indices: Sequence[int] | None = None,
@@ -87,7 +88,6 @@ class StateSpaceModel(Dimensions):
         y_offset: object | None = None,
         u_offset: object | None = None,
         info: dict[str, Any] | None = None,
-        *,
         divisors: Sequence[Sequence[float]] | None = None,
         K: object | None = None,
         noise_cov: object | None = None,
@@ -315,7 +315,7 @@ class StateSpaceModel(Dimensions):
         if not any(self.input_delays):
             return self
         A, B, C, D = delay_states(self.A, self.B, self.C, self.D, self.input_delays)
-        return StateSpaceModel(A, B, C, D, self.Ts, self.output_names, self.input_names,
+        return StateSpaceModel(A, B, C, D, self.Ts, output_names=self.output_names, input_names=self.input_names,
                                y_offset=self.y_offset, u_offset=self.u_offset, info=dict(self.info))
 
     def frequency_response(self, omega: object) -> np.ndarray:
@@ -339,7 +339,7 @@ class StateSpaceModel(Dimensions):
         """
         w = check_omega(omega)
         delays = self.Ts * np.asarray(self.input_delays, dtype=float)
-        return frequency_response(self.A, self.B, self.C, self.D, np.exp(1j * w * self.Ts), w, delays)
+        return frequency_response(self.A, self.B, self.C, self.D, np.exp(1j * w * self.Ts), w, delays=delays)
 
     def to_continuous(self, method: str = "zoh"):  # -> ContinuousModel
         """The continuous-time model this model samples, by zero-order hold or Tustin.
@@ -389,5 +389,5 @@ class StateSpaceModel(Dimensions):
 
         checked = cls(A, B, C, D, Ts)  # the constructor's shape, finiteness and Ts checks
         Ad, Bd, Cd, Dd = discretize(checked.A, checked.B, checked.C, checked.D, checked.Ts, method)
-        return cls(Ad, Bd, Cd, Dd, checked.Ts, output_names, input_names,
+        return cls(Ad, Bd, Cd, Dd, checked.Ts, output_names=output_names, input_names=input_names,
                    y_offset=y_offset, u_offset=u_offset)

@@ -32,9 +32,9 @@ def model_from_dict(content: dict[str, Any]) -> StateSpaceModel | ContinuousMode
             return ContinuousModel.from_dict(content)
         return StateSpaceModel(
             content["A"], content["B"], content["C"], content["D"], content["Ts"],
-            content["output_names"], content["input_names"], content.get("indices"),
-            content.get("alpha"), content.get("y_offset"), content.get("u_offset"),
-            content.get("info"), divisors=content.get("divisors"),
+            output_names=content["output_names"], input_names=content["input_names"], indices=content.get("indices"),
+            alpha=content.get("alpha"), y_offset=content.get("y_offset"), u_offset=content.get("u_offset"),
+            info=content.get("info"), divisors=content.get("divisors"),
             K=content.get("K"), noise_cov=content.get("noise_cov"),  # absent in older files
             cov_factor=content.get("cov_factor"),
         ).with_input_delays(content.get("input_delays", 0))

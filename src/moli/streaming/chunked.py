@@ -77,7 +77,7 @@ class ChunkedEstimator(FixedFilterEstimator):
 
     def __init__(self, indices: Sequence[int], alpha: Sequence[float], m: int, Ts: float = 1.0) -> None:
         # no forgetting, unit noise variance and no prior: the plain least-squares factor
-        super().__init__(indices, alpha, m, Ts, 1.0, 1.0, np.inf)
+        super().__init__(indices, alpha, m, Ts, 1.0, 1.0, p0=np.inf)
         self.start = 0
 
     def filter_states(self) -> list[np.ndarray]:

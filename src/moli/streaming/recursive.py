@@ -4,7 +4,7 @@ Each output's parameters are estimated by recursive least squares on the causal
 MOLI regressors (docs/method.md §6), ``P_0 = p0 I``, ``theta_0 = 0``,
 output noise variance ``R2`` and an optional forgetting factor. Like
 :func:`moli.estimate`, the first ``max(indices)`` samples only charge the
-filters. The state-space model comes from :func:`moli.method.least_squares.estimation.realize`.
+filters. The state-space model comes from :func:`moli.method.least_squares.realization.realize`.
 
 Outputs whose indices are equal share the filter ``alpha_j`` and hence the
 regressors, so they share one square-root factor (see :mod:`moli.streaming.sqrt_rls`).
@@ -20,7 +20,7 @@ from .causal import CausalRegressors
 from ..data.arguments import integer, period
 from ..data.iodata import stack_signals
 from ..errors import DataError, OptionError
-from ..method.least_squares.estimation import realize
+from ..method.least_squares.realization import realize
 from ..method.structure.filters import check_alpha, divisors
 from ..models.statespace import StateSpaceModel
 
@@ -203,7 +203,7 @@ class FixedFilterEstimator:
 
     def __init__(
         self, indices: Sequence[int], alpha: Sequence[float], m: int, Ts: float,
-        forgetting: float, noise_variance: float, p0: float,
+        forgetting: float, noise_variance: float, *, p0: float,
     ) -> None:
         self.indices = check_indices(indices, len(indices))
         self.alpha = check_alpha(alpha)
@@ -281,7 +281,7 @@ class RecursiveMoli(FixedFilterEstimator):
         self, indices: Sequence[int], alpha: Sequence[float], m: int, *,
         forgetting: float = 1.0, noise_variance: float = 1.0, p0: float = 1e6, Ts: float = 1.0,
     ) -> None:
-        super().__init__(indices, alpha, m, Ts, forgetting, noise_variance, p0)
+        super().__init__(indices, alpha, m, Ts, forgetting, noise_variance, p0=p0)
 
     def update(self, y_k: object, u_k: object) -> "RecursiveMoli":
         """Absorb one sample: outputs ``y_k`` (p,) and inputs ``u_k`` (m,)."""

@@ -88,6 +88,7 @@ class TwinRotor:
         psi0: float = 0.2,
         phi0: float = 0.0,
         quantization: float = DEFAULT_QUANTIZATION,
+        *,
         noise_std: float = 0.0,
         seed: int = 0,
         substeps: int = 20,
