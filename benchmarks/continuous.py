@@ -54,7 +54,7 @@ import moli  # noqa: E402
 from moli.data.daisy import list_daisy  # noqa: E402
 from moli.method.continuous.estimation import StampedRecord, observer_rows  # noqa: E402
 from moli.method.continuous.filters import unit_divisors  # noqa: E402
-from moli.method.identification import HOLDOUT_FRACTION  # noqa: E402
+from moli.method.pipeline.preparation import HOLDOUT_FRACTION  # noqa: E402
 from moli.method.selection.order_rules import select_by_shares, select_order  # noqa: E402
 
 Case = dict[str, Any]

@@ -22,6 +22,14 @@ REPO = PACKAGE.parents[1]
 # Pipeline order: a module may import its own layer and the layers before it.
 LAYERS = ("errors", "numerics", "data", "models", "validation", "method", "streaming", "fleets", "systems", "control",
           "app")
+# The method's stages in the order docs/method.md takes them: a stage may import its own
+# package and the stages before it. options/ comes after the stages whose choices it lists
+# and before those that read it; pipeline/ holds identify()'s steps, which call them all;
+# the modules at method/'s root (identification, result) sit above every stage.
+METHOD_STAGES = ("structure", "least_squares", "tuning", "options", "search", "refinement", "closed_loop",
+                 "uncertainty", "selection", "continuous", "pipeline")
+# method/'s root holds only the entry point, its result and the package's names.
+METHOD_ROOT = {"__init__", "identification", "result"}
 # About a screen or two per module; a little slack over the 400-line guide.
 MAX_LINES = 420
 
@@ -104,6 +112,49 @@ def test_no_module_imports_up_the_pipeline():
         if _layer(src) is not None and _layer(dst) is not None and _layer(dst) > _layer(src)
     ]
     assert not wrong, "\n".join(wrong)
+
+
+def _stage(module: str) -> int | None:
+    """The position of a module's stage inside method/ (the root modules above every stage)."""
+    parts = module.split(".")
+    if len(parts) < 3 or parts[1] != "method":
+        return None
+    return METHOD_STAGES.index(parts[2]) if parts[2] in METHOD_STAGES else len(METHOD_STAGES)
+
+
+def test_method_is_stage_packages_in_pipeline_order():
+    method = PACKAGE / "method"
+    root = {path.stem for path in method.glob("*.py")}
+    assert root == METHOD_ROOT, "method/ holds stage packages; a new module goes into the stage it belongs to"
+    packages = {path.name for path in method.iterdir() if (path / "__init__.py").exists()}
+    assert packages == set(METHOD_STAGES)
+    wrong = [f"{src} imports {dst}" for src, targets in _graph().items() for dst in targets
+             if _stage(src) is not None and _stage(dst) is not None and _stage(dst) > _stage(src)]
+    assert not wrong, "\n".join(wrong)
+
+
+def _private_imports() -> list[str]:
+    """Imports of a private name (``_x``) of another moli module, in the package's source."""
+    found = []
+    for name, path in _modules().items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and (node.level or (node.module or "").startswith("moli")):
+                found += [f"{name}: {alias.name} from {'.' * node.level}{node.module or ''}" for alias in node.names
+                          if alias.name.startswith("_") and not alias.name.startswith("__")]
+    return found
+
+
+def test_no_module_imports_another_modules_private_names():
+    assert _private_imports() == []
+
+
+def test_the_stage_checks_can_fail():
+    # the checks above would pass on a graph without method's stages: make sure they read them
+    graph = _graph()
+    assert "moli.method.least_squares.estimation" in graph["moli.method.tuning.criterion"]
+    assert _stage("moli.method.tuning.criterion") > _stage("moli.method.least_squares.estimation")
+    assert _stage("moli.method.identification") > _stage("moli.method.pipeline.preparation")
+    assert _stage("moli.validation.comparison") is None
 
 
 def test_the_cycle_check_can_fail():

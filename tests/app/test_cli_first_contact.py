@@ -12,7 +12,7 @@ from click.testing import CliRunner, Result
 
 import moli
 from moli.app import cli
-from moli.method import identification
+from moli.method.pipeline import finishing
 
 INPUTS, OUTPUTS = "u1,u2,u3", "y1,y2,y3"
 NMAX = "4"  # the path 3, 4: fast, and enough for an order rule
@@ -131,7 +131,7 @@ def test_ctrl_c_during_the_covariance_keeps_the_model_and_says_what_was_cut(fold
     def interrupt(*args, **kwargs):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(identification, "estimate_covariance", interrupt)
+    monkeypatch.setattr(finishing, "estimate_covariance", interrupt)
     done = run("fit", "plant.csv", *CHANNELS)
     assert done.exit_code == 0, done.stderr
     assert "moli: interrupted; keeping the model before the covariance (skipped: covariance, noise model)" \

@@ -5,7 +5,8 @@ import pytest
 from scipy.signal import lfilter
 
 import moli
-from moli.method.least_squares.estimation import fit_batch, realize
+from moli.method.least_squares.estimation import fit_batch
+from moli.method.least_squares.realization import realize
 
 from systems_util import generic_indices, random_system
 

@@ -10,7 +10,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import moli
-from moli.method import identification
+from moli.method.pipeline import finishing, order_choice
+from moli.method.refinement import refined_steps
 from moli.method.structure.rows import largest_order, samples_needed
 from moli.method.selection.checks import SAMPLES_PER_PARAMETER, selection_samples_needed
 
@@ -28,7 +29,7 @@ def interrupt(*args, **kwargs):
 
 def test_ctrl_c_in_the_covariance_keeps_the_refined_model(halves, monkeypatch):
     whole = moli.identify(*halves, nmax=NMAX)
-    monkeypatch.setattr(identification, "estimate_covariance", interrupt)
+    monkeypatch.setattr(finishing, "estimate_covariance", interrupt)
     cut = moli.identify(*halves, nmax=NMAX)
     assert cut.interrupted and cut.skipped == ("covariance", "noise model")
     assert cut.model.cov_factor is None and cut.model.K is None
@@ -40,7 +41,7 @@ def test_ctrl_c_in_the_covariance_keeps_the_refined_model(halves, monkeypatch):
 
 def test_ctrl_c_in_the_refinement_keeps_the_unrefined_model(halves, monkeypatch):
     unrefined = moli.identify(*halves, nmax=NMAX, refine="none")
-    monkeypatch.setattr(identification, "refine_each", interrupt)
+    monkeypatch.setattr(refined_steps, "refine_each", interrupt)
     cut = moli.identify(*halves, nmax=NMAX)
     assert cut.skipped == ("refinement", "covariance", "noise model")
     assert cut.selected.indices == unrefined.selected.indices
@@ -49,7 +50,7 @@ def test_ctrl_c_in_the_refinement_keeps_the_unrefined_model(halves, monkeypatch)
 
 def test_ctrl_c_while_refining_the_path_selects_on_the_unrefined_path(halves, monkeypatch):
     unrefined = moli.identify(*halves, nmax=NMAX, refine="none")
-    monkeypatch.setattr(identification, "refine_each", interrupt)
+    monkeypatch.setattr(refined_steps, "refine_each", interrupt)
     cut = moli.identify(*halves, nmax=NMAX, refine="path")
     assert cut.skipped == ("refinement of the path", "covariance", "noise model")
     assert [st.mean_vaf for st in cut.path] == [st.mean_vaf for st in unrefined.path]
@@ -80,7 +81,7 @@ def test_samples_needed_is_ten_per_parameter_of_the_largest_model():
 
 def test_ctrl_c_in_the_refined_order_rule_falls_back_to_the_paired_rule(halves, monkeypatch):
     paired = moli.identify(*halves, nmax=NMAX, order_rule="paired", refine="none")
-    monkeypatch.setattr(identification, "select_order_refined", interrupt)
+    monkeypatch.setattr(order_choice, "select_order_refined", interrupt)
     cut = moli.identify(*halves, nmax=NMAX, order_rule="refined")
     assert cut.skipped == ("order rule's refinements", "refinement", "covariance", "noise model")
     assert cut.selected.indices == paired.selected.indices

@@ -153,10 +153,10 @@ def test_estimate_noise_model_rejects_bad_input_before_any_work():
 
 
 def test_an_unstable_selection_keeps_no_noise_model():
-    from moli.method.identification import _attached
+    from moli.method.pipeline.finishing import attached
 
     unstable = moli.StateSpaceModel([[1.2]], [[1.0]], [[1.0]])
-    model = _attached(estimate_noise_model, "noise_model", unstable, moli.IOData(np.zeros(100), np.ones(100)))
+    model = attached(estimate_noise_model, "noise_model", unstable, moli.IOData(np.zeros(100), np.ones(100)))
     assert model.K is None and model.info["noise_model"]["method"] == "none"
     assert "stable model" in model.info["noise_model"]["reason"]
 

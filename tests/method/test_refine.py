@@ -12,7 +12,8 @@ import moli
 from moli.errors import OptionError
 from moli.method.refinement.observer_form import observer_form
 from moli.method.refinement.output_error import OutputErrorProblem
-from moli.method.selection.order_rules import generic_candidate, polished, polished_if_clearly_better
+from moli.method.refinement.refined_steps import RefinedSteps
+from moli.method.selection.candidates import generic_candidate, polished_if_clearly_better
 from moli.method.refinement.levenberg_marquardt import polish, refine, refine_each
 
 
@@ -300,12 +301,13 @@ def test_the_early_stop_stays_where_validation_does_not_clearly_prefer_the_optim
     fitted = search.fit((3, 1))
     early = refine(fitted.model, est).model
     step = dataclasses.replace(fitted, model=early, vaf=moli.compare(early, val).vaf)
-    optimum = polished(step, est, val)
+    refined = RefinedSteps(est, val, (0.0,))
+    optimum = refined.polished(step)
     assert optimum.model is not early
-    assert polished_if_clearly_better(step, est, val) is step
+    assert polished_if_clearly_better(step, refined) is step
     assert optimum.mean_vaf > step.mean_vaf
     # the same polish run twice: the same model to the bit
-    np.testing.assert_array_equal(polished_if_clearly_better(step, est, val, z=0.0).model.A, optimum.model.A)
+    np.testing.assert_array_equal(polished_if_clearly_better(step, refined, z=0.0).model.A, optimum.model.A)
 
 
 def _lightly_damped(N, seed):
@@ -355,16 +357,13 @@ def test_generic_candidate_only_where_the_selected_list_is_not_generic():
     est, val = data.split(400)
     est, val = est.remove_means(), val.remove_means()
     search = moli.method.search.greedy_path.StructureSearch(est, val, moli.method.tuning.barycenter.default_omega(), "grid")
-
-    def free(step):
-        model = refine(step.model, est, iterations=3).model
-        return dataclasses.replace(step, model=model, vaf=moli.compare(model, val).vaf)
+    refined = RefinedSteps(est, val, (0.0,), iterations=3)
 
     # two outputs, order 3: the generic list is (2, 1)
-    assert generic_candidate(search, search.fit((2, 1)), free, est, val) is None
-    candidate = generic_candidate(search, search.fit((1, 2)), free, est, val)
-    # three steps of refine_free, then at least one of polish's
+    assert generic_candidate(search, search.fit((2, 1)), refined) is None
+    candidate = generic_candidate(search, search.fit((1, 2)), refined)
+    # three steps of the free refinement, then at least one of polish's
     assert candidate.indices == (2, 1) and candidate.model.info["refine_iterations"] > 3
     # asked to (the orders below), the step's own generic list is refined from its own model
-    own = generic_candidate(search, search.fit((2, 1)), free, est, val, own_list=True)
+    own = generic_candidate(search, search.fit((2, 1)), refined, own_list=True)
     assert own.indices == (2, 1) and own.model.info["refine_iterations"] > 3

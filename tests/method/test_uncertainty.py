@@ -8,9 +8,10 @@ import numpy as np
 import pytest
 
 import moli
-import moli.method.identification as identification
+import moli.method.pipeline.finishing as finishing
 from moli.method.least_squares.sandwich import _moving_sums, matrix_directions, sandwich_factor
-from moli.method.least_squares.estimation import observer_form_matrices, output_regressors
+from moli.method.least_squares.estimation import output_regressors
+from moli.method.least_squares.realization import observer_form_matrices
 from moli.method.tuning.criterion import _realize_feedthrough
 
 # A resonant SISO plant of order 2 (poles 0.8 exp(±0.4j), a zero at -0.5) and the
@@ -163,7 +164,7 @@ def test_estimate_covariance_rebuilds_what_estimate_attached_and_keeps_its_input
 def test_identify_attaches_the_covariance_and_changes_nothing_else(monkeypatch):
     est, val = moli.example_data(N=600, seed=1).split(400)
     result = moli.identify(est, val, nmax=6)
-    monkeypatch.setattr(identification, "estimate_covariance", lambda model, data: model)
+    monkeypatch.setattr(finishing, "estimate_covariance", lambda model, data: model)
     plain = moli.identify(est, val, nmax=6)
     model = result.model
     assert model.cov_factor is not None and plain.model.cov_factor is None

@@ -7,7 +7,8 @@ from hypothesis import given, settings, strategies as st
 import moli
 from moli.streaming.chunked import ChunkedEstimator
 from moli.errors import DataError, FilterError, OptionError, StructureError
-from moli.method.least_squares.estimation import filtered_regressors, realize
+from moli.method.least_squares.estimation import filtered_regressors
+from moli.method.least_squares.realization import realize
 from moli.method.structure.filters import divisors
 
 from systems_util import plant_record

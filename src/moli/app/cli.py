@@ -127,7 +127,7 @@ def _all_lists(result: IdentificationResult) -> list[PathStep]:
     """Every list of each path order with few enough lists, minus the path itself."""
     opts = result.options
     search = StructureSearch(result.estimation, result.validation, result.omega,
-                             opts.tuning, opts.iterations, opts.s, opts.seed, opts.x0)
+                             opts.tuning, opts.iterations, opts.s, seed=opts.seed, x0=opts.x0)
     p = result.estimation.p
     orders = [st.order for st in result.path if math.comb(st.order - 1, p - 1) <= MAX_LISTS_PER_ORDER]
     on_path = {st.indices for st in result.path}

@@ -65,7 +65,7 @@ def _validation_figure(result: ContinuousResult) -> Figure:
     record = stamped_record(result.validation)
     end = result.options.path_end(result.model.p)        # the warm-up the search scored with
     simulated = simulate_stamped(result.model.A, result.model.B, result.model.C, record,
-                                 result.options.input_hold == "foh", WARM_UP, end)
+                                 result.options.input_hold == "foh", WARM_UP, states=end)
     fig = figures.new_figure(7.0, figures.PANEL_HEIGHT * result.model.p + 0.4)
     axes = fig.subplots(result.model.p, 1, sharex=True, squeeze=False)[:, 0]
     for k, (t, y, yhat) in enumerate(zip(record.times, record.y, simulated)):

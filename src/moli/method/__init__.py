@@ -1,21 +1,20 @@
 """MOLI-ZOFT: structure lists, filters, least squares, filter tuning, structure search.
 
-The stages in the order the data meet them (docs/method.md): :mod:`.structure` (lists
-of observability indices), :mod:`.filters` (the filter α and its divisors),
-:mod:`.estimation` (least squares for a fixed structure, realization),
-:mod:`.regression` and :mod:`.scoring` (the shared factors and the criterion J),
-:mod:`.tuning` (the barycenter filter search), :mod:`.output_filters`,
-:mod:`.search` (greedy path, order rule), :mod:`.refinement` (on the parameters of
-:mod:`.observer_form`), :mod:`.prediction_error` and :mod:`.reference_projection` (the
-direct and two-stage methods for closed-loop records), :mod:`.noise_model`
-(Kalman gain from the residuals), :mod:`.covariance` and :mod:`.uncertainty` (the
-covariance of the parameters and of the matrices), :mod:`.options` and :mod:`.identification` (the
-one-call entry point). :mod:`.continuous` is the same method in continuous time
-(docs/continuous.md). Many records at once: :mod:`moli.fleets`.
+Stage packages in the order the data meet them (docs/method.md, whose sections map onto
+them): :mod:`.structure` (lists of observability indices, the filter α, regression rows),
+:mod:`.least_squares` (one list's problems, the shared factors, realization),
+:mod:`.tuning` (the criterion J, the barycenter search, per-output filters),
+:mod:`.options` (:class:`IdentifyOptions`), :mod:`.search` (the greedy path),
+:mod:`.refinement` (output error, the direct method's prediction error),
+:mod:`.closed_loop`, :mod:`.uncertainty` (covariance, noise model), :mod:`.selection`
+(order rules, the guarded refinement), :mod:`.continuous` (the same method in continuous
+time, docs/continuous.md) and :mod:`.pipeline` (the steps of :func:`identify`, in
+:mod:`.identification`). Many records at once: :mod:`moli.fleets`.
 """
 
 from .continuous import ContinuousResult, ContinuousStep
-from .least_squares.estimation import estimate, realize
+from .least_squares.estimation import estimate
+from .least_squares.realization import realize
 from .structure.filters import divisor, divisors, filter_polynomial
 from .identification import IdentificationResult, identify
 from .uncertainty.noise_model import estimate_noise_model

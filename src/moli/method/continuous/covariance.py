@@ -17,7 +17,7 @@ import numpy as np
 import scipy.linalg
 
 from ..least_squares.sandwich import check_rank, long_run_covariance, sandwich_root
-from ..least_squares.estimation import observer_form_matrices
+from ..least_squares.realization import observer_form_matrices
 from ..least_squares.shared_factors import quotient_map
 from ..structure.indices import Indices
 from .estimation import StampedRecord, model_part, observer_rows

@@ -22,7 +22,7 @@ import scipy.linalg
 
 from ...data.iodata import IOData
 from ...errors import DataError
-from ..least_squares.estimation import observer_form_matrices
+from ..least_squares.realization import observer_form_matrices
 from ..least_squares.shared_factors import quotient_map, reduced_problems
 from ..structure.indices import Indices
 from .filters import unit_divisors
@@ -249,7 +249,7 @@ def warm_up_rows(size: int, share: float, n: int, p: int) -> int:
 
 
 def simulate_stamped(A: np.ndarray, B: np.ndarray, C: np.ndarray, record: StampedRecord,
-                     linear_inputs: bool, warm_up: float = 1.0, states: int | None = None) -> list[np.ndarray]:
+                     linear_inputs: bool, warm_up: float = 1.0, *, states: int | None = None) -> list[np.ndarray]:
     """Each segment's simulated outputs, from the initial state that fits it best.
 
     A record cut at gaps starts its segments mid-motion, so each segment's initial

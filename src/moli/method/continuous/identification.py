@@ -148,9 +148,9 @@ def identify_continuous(estimation: IOData, validation: IOData, source: str, opt
     p = estimation.p
     omega = continuous_grid(fitted.steps(), fitted.durations()) if opts.omega is None else np.array(opts.omega)
     end = opts.path_end(p)
-    search = ContinuousSearch(fitted, scored, omega, opts.s, opts.input_hold == "foh",
-                              (estimation.output_names, estimation.input_names),
-                              (estimation.y_offset, estimation.u_offset), end)
+    search = ContinuousSearch(fitted, scored, omega, opts.s, linear_inputs=opts.input_hold == "foh",
+                              names=(estimation.output_names, estimation.input_names),
+                              offsets=(estimation.y_offset, estimation.u_offset), largest_order=end)
     path = greedy_path(search, end, progress)
     if not path:
         raise DataError(f"the estimation record has {fitted.rows(1)} usable samples: too few for even "

@@ -93,7 +93,7 @@ class ContinuousSearch:
     """
 
     def __init__(self, estimation: StampedRecord, validation: StampedRecord, omega: np.ndarray,
-                 s: float, linear_inputs: bool, names: tuple[tuple[str, ...], tuple[str, ...]],
+                 s: float, *, linear_inputs: bool, names: tuple[tuple[str, ...], tuple[str, ...]],
                  offsets: tuple[np.ndarray, np.ndarray], largest_order: int) -> None:
         self.estimation, self.validation = estimation, validation
         self.largest_order = largest_order
@@ -159,7 +159,7 @@ class ContinuousSearch:
         """
         with np.errstate(all="ignore"):
             simulated = simulate_stamped(model.A, model.B, model.C, self.validation, self.linear_inputs,
-                                         WARM_UP, self.largest_order)
+                                         WARM_UP, states=self.largest_order)
         kept = [slice(warm_up_rows(t.size, WARM_UP, self.largest_order, model.p), None)
                 for t in self.validation.times]
         simulated = [part[rows] for part, rows in zip(simulated, kept)]

@@ -326,7 +326,7 @@ def matrix_directions(
 def matrix_covariance(
     problems: tuple[Sequence[np.ndarray], np.ndarray] | Callable[[], Iterable[tuple[list[np.ndarray], np.ndarray]]],
     indices: Sequence[int], C: np.ndarray, D: np.ndarray, through: np.ndarray, D_y: np.ndarray | None = None,
-    breaks: Sequence[int] = (),
+    *, breaks: Sequence[int] = (),
 ) -> tuple[np.ndarray, dict[str, object]]:
     """``cov_factor`` of a model from its least-squares problems, and the record for its ``info``.
 

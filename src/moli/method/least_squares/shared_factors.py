@@ -19,7 +19,7 @@ from numpy.lib.stride_tricks import as_strided
 from ...errors import OptionError
 from .estimation import solve_batch
 from .regularization import REGULARIZATIONS, ridge_gcv
-from ..structure.filters import _needs_real, filter_rows
+from ..structure.filters import needs_real_root, filter_rows
 from ...numerics.recursive_filter import recursive_filter
 from ...numerics.triangular import QR_BLOCK, WHOLE_TALL_ROWS, streamed_factor, tall_factor
 from .row_blocks import WHOLE_ROWS, lagged_blocks
@@ -104,7 +104,7 @@ class RegressionCache:
         Filters not seen yet are built together by :func:`moli.method.structure.filters.filter_rows`.
         """
         etas = np.asarray(etas, float)
-        nbar, needs_real = max(indices), _needs_real(indices)
+        nbar, needs_real = max(indices), needs_real_root(indices)
         keys = [(w, zeta, Ts, s, nbar, needs_real) for w, zeta in etas.tolist()]
         degrees = set(indices)
         todo = [i for i, k in enumerate(keys) if not degrees <= self._filters.get(k, {}).keys()]

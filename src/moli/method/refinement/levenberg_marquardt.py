@@ -36,7 +36,7 @@ from ...numerics.triangular import column_norms, tall_factor
 from ...models.delays import shift_inputs
 from ...models.statespace import StateSpaceModel
 
-__all__ = ["RefineResult", "refine", "refine_each", "polish"]
+__all__ = ["RefineResult", "refine", "refine_each", "polish", "is_refined"]
 
 # Poles may move up to this radius: 1 - 1e-3 keeps time constants below 1000 samples,
 # far beyond any record the method is used on, while leaving round-off room.
@@ -300,18 +300,24 @@ class RefinementStart:
                             cost_start, cost, accepted, rejected)
 
 
+def is_refined(model: StateSpaceModel) -> bool:
+    """Whether ``model`` is a refinement that moved from its start (at least one accepted step):
+    its estimate, and so its covariance, is the output-error problem's."""
+    return bool(model.info.get("refined")) and model.info.get("refine_iterations", 0) > 0
+
+
 def polish(model: StateSpaceModel, data: IOData, max_radius: float = MAX_RADIUS) -> StateSpaceModel:
     """A free output-error refinement continued to its optimum (a model of any other kind as it is).
 
     ``identify`` compares lists and ridges on validation after a few refinement steps,
     which act as early stopping (chosen on the generalization benchmark, docs/accuracy.md).
-    The generic list's refinement (:func:`moli.method.selection.order_rules.generic_candidate`) is taken
+    The generic list's refinement (:func:`moli.method.selection.candidates.generic_candidate`) is taken
     on to the minimum of ``V``, where its estimate is consistent and the covariance of
     :func:`moli.method.uncertainty.refined_covariance.refined_covariance` holds: on the 3x3 example
     plant (600 samples) its least-squares start is 10-66 steps away, and stopped at ten
     its bands held the true gain at 0.73-0.78 of the points, at the minimum 0.91-0.95. The
     selected model is taken there too where validation clearly prefers it
-    (:func:`moli.method.selection.order_rules.polished_if_clearly_better`).
+    (:func:`moli.method.selection.candidates.polished_if_clearly_better`).
 
     Parameters
     ----------

@@ -14,7 +14,7 @@ import scipy.linalg
 
 from ...errors import DataError
 from ...models.statespace import StateSpaceModel
-from ..least_squares.estimation import _filter_companion
+from ..least_squares.realization import filter_companion
 from ..structure.filters import divisors
 
 __all__ = ["ObserverForm", "observer_form"]
@@ -62,7 +62,7 @@ def observer_form(model: StateSpaceModel) -> ObserverForm:
         raise DataError("refinement needs a MOLI model that carries its indices and filter polynomials")
     indices = model.indices
     n, p = model.n, model.p
-    A_D = _filter_companion([alpha_j[None] for alpha_j in filters], indices)[0]
+    A_D = filter_companion([alpha_j[None] for alpha_j in filters], indices)[0]
     C_D = np.zeros((p, n))
     last = np.cumsum(indices) - 1
     C_D[np.arange(p), last] = 1.0

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass, field
 from typing import Any, Callable, Sequence
 
@@ -12,6 +13,7 @@ from ...data.iodata import IOData
 from ...errors import DataError
 from ..structure.rows import check_regression_rows
 from ...models.statespace import StateSpaceModel
+from ..options.identify_options import IdentifyOptions
 from ..structure.indices import Indices, compositions, raised
 from ..tuning.output_filters import tune_output_cutoffs
 from ..least_squares.shared_factors import RegressionCache
@@ -19,7 +21,7 @@ from ..tuning.criterion import FilterScorer
 from ..tuning.barycenter import tune_filters
 from ...validation.comparison import compare
 
-__all__ = ["ScoredStep", "PathStep", "StructureSearch", "greedy_path", "next_step", "exhaustive"]
+__all__ = ["ScoredStep", "PathStep", "StructureSearch", "greedy_path", "path_until_interrupted", "next_step", "exhaustive"]
 
 
 class ScoredStep:
@@ -115,7 +117,7 @@ class StructureSearch:
 
     def __init__(
         self, estimation: IOData, validation: IOData, omega: np.ndarray, tuning: str = "random",
-        iterations: int = 5, s: float = 2.0, seed: int = 0, x0: str = "zero",
+        iterations: int = 5, s: float = 2.0, *, seed: int = 0, x0: str = "zero",
         criterion_x0: str = "zero", feedthrough: bool = False, max_radius: float | None = None,
         trend_degree: int = 0, output_filters: bool = False, regularization: str = "none",
     ) -> None:
@@ -137,6 +139,16 @@ class StructureSearch:
         self._regressions = RegressionCache(
             self._z, estimation.p, feedthrough, estimation.segment_starts, regularization
         )
+
+    @classmethod
+    def from_options(cls, estimation: IOData, validation: IOData, omega: np.ndarray, options: IdentifyOptions,
+                     max_radius: float | None) -> StructureSearch:
+        """The search :func:`moli.identify` runs: every setting from ``options``, the pole bound
+        ``max_radius`` resolved for the record (``options.max_radius`` may be "auto")."""
+        return cls(estimation, validation, omega, options.tuning, options.iterations, options.s, seed=options.seed,
+                   x0=options.x0, criterion_x0=options.criterion_x0, feedthrough=options.feedthrough,
+                   max_radius=max_radius, trend_degree=options.trend_degree, output_filters=options.output_filters,
+                   regularization=options.regularization)
 
     def feasible(self, indices: Indices) -> bool:
         """Whether the estimation record has enough samples for this list."""
@@ -178,7 +190,7 @@ class StructureSearch:
     def _scorer(self, indices: Indices) -> FilterScorer:
         return FilterScorer(
             self._z, indices, self.estimation.Ts, self.s, self._regressions, self.criterion_x0,
-            self.max_radius, self.trend_degree, self.estimation.segment_starts,
+            max_radius=self.max_radius, trend_degree=self.trend_degree, starts=self.estimation.segment_starts,
         )
 
     def _separate(self, step: PathStep) -> None:
@@ -249,6 +261,32 @@ def greedy_path(
         if progress:
             progress(path[-1])
     return path
+
+
+def path_until_interrupted(search: StructureSearch, nmax: int,
+                           progress: Callable[[PathStep], None] | None = None) -> tuple[list[PathStep], bool]:
+    """:func:`greedy_path`, kept as far as it got when Ctrl-C stops it, and whether it did.
+
+    Unstable candidates are expected while searching (the selected model is checked
+    later): their RuntimeWarnings are not shown. Ctrl-C before the first step is done
+    stops the identification.
+    """
+    path: list[PathStep] = []
+
+    def record(step: PathStep) -> None:
+        path.append(step)
+        if progress:
+            progress(step)
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        try:
+            greedy_path(search, nmax, record)
+        except KeyboardInterrupt:
+            if not path:
+                raise
+            return path, True
+    return path, False
 
 
 def next_step(search: StructureSearch, step: PathStep) -> PathStep | None:

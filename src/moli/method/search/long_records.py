@@ -37,7 +37,7 @@ def search_window(record: IOData, samples: int | None) -> IOData:
 
 def reestimate(
     step: PathStep, record: IOData, validation: IOData, s: float, feedthrough: bool | str, x0: str,
-    regularization: str = "none",
+    *, regularization: str = "none",
 ) -> PathStep:
     """``step`` with its model's least squares redone on the whole ``record``.
 

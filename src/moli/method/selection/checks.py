@@ -16,8 +16,10 @@ import numpy as np
 
 from ...data.iodata import IOData
 from ...errors import MoliError, OrderBoundWarning, ShortValidationWarning
-from .order_rules import RefineSteps, clearly_better, refined_as
-from ..uncertainty.refined_covariance import is_refined
+from .candidates import refined_as
+from .order_rules import clearly_better
+from ..refinement.refined_steps import RefinedSteps
+from ..refinement.levenberg_marquardt import is_refined
 from ..structure.rows import parameter_counts
 from ..search.greedy_path import PathStep, StructureSearch, next_step
 
@@ -89,12 +91,12 @@ def warn_if_short_selection(path: Sequence[PathStep], validation_samples: int, m
         )
 
 
-def _next_order_fits_better(beyond: tuple[StructureSearch, PathStep, PathStep, RefineSteps | None, float],
+def _next_order_fits_better(beyond: tuple[StructureSearch, PathStep, PathStep, RefinedSteps | None],
                             x0: str) -> tuple[bool, PathStep | None]:
     """Whether the path's next step clearly beats its least squares at the bound and the model
     returned (refined as that model was), and the step; (True, None) where the record allows no
     higher list."""
-    search, last, returned, refine, max_radius = beyond
+    search, last, returned, refined = beyond
     with warnings.catch_warnings():
         # a list above the path: its least squares may be unstable, as on the path itself
         warnings.simplefilter("ignore", RuntimeWarning)
@@ -104,16 +106,16 @@ def _next_order_fits_better(beyond: tuple[StructureSearch, PathStep, PathStep, R
         if not clearly_better(above, last, search.validation, x0, BOUND_Z):
             return False, above
         rival = above
-        if refine is not None and is_refined(returned.model):
+        if refined is not None and is_refined(returned.model):
             try:
-                rival = refined_as(returned.model, refine, search.estimation, search.validation, x0, max_radius)(above)
+                rival = refined_as(returned.model, refined)(above)
             except (MoliError, np.linalg.LinAlgError):
                 pass
     return clearly_better(rival, returned, search.validation, x0, BOUND_Z), above
 
 
-def warn_if_at_bound(path: Sequence[PathStep], selected: int, nmax: int, validation: IOData, x0: str = "zero",
-                     beyond: tuple[StructureSearch, PathStep, PathStep, RefineSteps | None, float] | None = None,
+def warn_if_at_bound(path: Sequence[PathStep], selected: int, nmax: int, validation: IOData, x0: str = "zero", *,
+                     beyond: tuple[StructureSearch, PathStep, PathStep, RefinedSteps | None] | None = None,
                      stacklevel: int = 2) -> None:
     """Issue an :class:`OrderBoundWarning` when the selected order is the search's bound
     ``nmax`` and beats the best lower order of ``path`` by more than :data:`BOUND_Z` paired
@@ -137,11 +139,11 @@ def warn_if_at_bound(path: Sequence[PathStep], selected: int, nmax: int, validat
         The record the path's VAFs were computed on.
     x0 : {"zero", "estimate"}
         Initial state of the validation simulations.
-    beyond : (StructureSearch, PathStep, PathStep, callable or None, float), optional
+    beyond : (StructureSearch, PathStep, PathStep, RefinedSteps or None), optional
         The search, the path's least-squares step at the bound as the search fitted it, the
-        selected step as it is returned (without input delays), the search's refinement
-        (``refine(step, ridges)``, the refined steps; None without refinement) and the pole
-        radius bound of its steps. The greedy step from the bound's
+        selected step as it is returned (without input delays), and the identification's
+        refinements (:class:`moli.method.refinement.refined_steps.RefinedSteps`; None without
+        refinement). The greedy step from the bound's
         (:func:`moli.method.search.greedy_path.next_step`) is fitted only where the rest would warn; all are
         scored on the search's own validation record (with its inputs shifted by any delays, as
         they were fitted). Nothing is said where that step does not clearly beat the bound's

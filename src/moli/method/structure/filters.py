@@ -27,6 +27,7 @@ from ...errors import FilterError
 from .indices import Indices
 
 __all__ = [
+    "needs_real_root",
     "filter_roots", "filter_polynomial", "check_alpha", "divisor", "divisors",
     "filter_divisors", "filter_rows",
 ]
@@ -79,12 +80,12 @@ def _roots_rows(etas: np.ndarray, indices: Indices, Ts: float, s: float) -> np.n
     if len(columns) < nbar:
         columns.append((np.abs(columns[-1]) ** s).astype(complex))
     roots = np.column_stack(columns)
-    if _needs_real(indices) and nbar % 2 == 0:
+    if needs_real_root(indices) and nbar % 2 == 0:
         roots[~over, -2:] = np.abs(roots[~over, -1])[:, None]
     return roots
 
 
-def _needs_real(indices: Indices) -> bool:
+def needs_real_root(indices: Indices) -> bool:
     """Whether an odd index below the largest needs alpha to carry a real root."""
     nbar = max(indices)
     return any(l % 2 == 1 and l < nbar for l in indices)
@@ -339,7 +340,7 @@ def filter_rows(
     # (or so fast) that the rule might read them otherwise take the one-row route.
     over = etas[:, 1] >= 1
     slowest = np.take_along_axis(roots.real, np.argsort(-np.abs(roots), axis=1, kind="stable"), axis=1)
-    n_pair_roots = 2 * (nbar // 2) - (2 if _needs_real(indices) and nbar % 2 == 0 else 0)
+    n_pair_roots = 2 * (nbar // 2) - (2 if needs_real_root(indices) and nbar % 2 == 0 else 0)
     heads = roots[:, :n_pair_roots]
     moduli = np.abs(np.column_stack([heads[:, ::2], roots[:, n_pair_roots : n_pair_roots + 1]]))
     paired = ~over & np.all(np.abs(heads.imag) > _REAL_TOLERANCES[0] * np.abs(heads), axis=1)

@@ -17,7 +17,8 @@ import numpy as np
 from ...errors import OptionError
 from ...models.simulation import simulate_batch
 from ...validation.comparison import X0_CHOICES
-from ..least_squares.estimation import observer_form_matrices, fit_batch, realize
+from ..least_squares.estimation import fit_batch
+from ..least_squares.realization import observer_form_matrices, realize
 from ..structure.filters import filter_divisors
 from ..least_squares.shared_factors import RegressionCache
 from ..structure.indices import Indices
@@ -173,7 +174,7 @@ class FilterScorer:
 
     def __init__(
         self, z: np.ndarray, indices: Indices, Ts: float, s: float,
-        cache: RegressionCache | None = None, x0: str = "zero",
+        cache: RegressionCache | None = None, x0: str = "zero", *,
         max_radius: float | None = None, trend_degree: int = 0, starts: Sequence[int] = (0,),
     ) -> None:
         self.max_radius = max_radius

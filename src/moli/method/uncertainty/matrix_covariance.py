@@ -22,7 +22,8 @@ from ..structure.rows import check_regression_rows, regression_rows, row_breaks,
 from ..structure.filters import divisors
 from ..refinement.observer_form import ObserverForm, observer_form
 from ..closed_loop.reference_projection import FirstStage
-from .refined_covariance import is_refined, refined_covariance
+from ..refinement.levenberg_marquardt import is_refined
+from .refined_covariance import refined_covariance
 
 __all__ = ["estimate_covariance"]
 
@@ -56,7 +57,7 @@ def estimate_covariance(model: StateSpaceModel, data: IOData, first_stage: First
     ----------
     model : StateSpaceModel
         A MOLI model: it carries ``indices`` and its filters (``alpha`` or
-        ``divisors``). For a refined model (:func:`moli.method.uncertainty.refined_covariance.is_refined`)
+        ``divisors``). For a refined model (:func:`moli.method.refinement.levenberg_marquardt.is_refined`)
         the problem is its output-error refinement's, and the
         covariance is the Gauss-Newton sandwich at its own parameters
         (:func:`moli.method.uncertainty.refined_covariance.refined_covariance`).
@@ -116,7 +117,7 @@ def estimate_covariance(model: StateSpaceModel, data: IOData, first_stage: First
     else:                       # a long record: its problems in row blocks, in bounded memory
         problems = lambda: regressor_blocks(z, model.indices, filters, through, starts)  # noqa: E731
     factor, record = matrix_covariance(problems, model.indices, model.C, model.D, through, form.D,
-                                       row_breaks(starts, z.shape[0], skip))
+                                       breaks=row_breaks(starts, z.shape[0], skip))
     attached = copy.deepcopy(model)
     attached.cov_factor, attached.info["covariance"] = factor, record
     return attached

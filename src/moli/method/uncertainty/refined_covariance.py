@@ -38,18 +38,12 @@ from ..refinement.prediction_error import METHOD as PREDICTION_ERROR, Prediction
 from ..refinement.levenberg_marquardt import RefinementStart
 from ...numerics.triangular import tall_factor
 
-__all__ = ["refined_covariance", "is_refined"]
+__all__ = ["refined_covariance"]
 
 # Directions of the column-scaled Jacobian with a singular value below this share of the
 # largest change the simulated output by less than round-off of the parameters (about
 # 1e-8 relative to the best-determined direction, which sqrt(eps) = 1.5e-8 resolves).
 NULL_DIRECTION = 1e-8
-
-
-def is_refined(model: StateSpaceModel) -> bool:
-    """Whether ``model`` is a refinement that moved from its start (at least one accepted step):
-    its estimate, and so its covariance, is the output-error problem's."""
-    return bool(model.info.get("refined")) and model.info.get("refine_iterations", 0) > 0
 
 
 def refined_covariance(model: StateSpaceModel, data: IOData,
@@ -59,7 +53,7 @@ def refined_covariance(model: StateSpaceModel, data: IOData,
     Parameters
     ----------
     model : StateSpaceModel
-        A refined MOLI model (:func:`is_refined`), free or with a ridge: either gets the
+        A refined MOLI model (:func:`moli.method.refinement.levenberg_marquardt.is_refined`), free or with a ridge: either gets the
         free problem's covariance.
     data : IOData
         The record it was refined on, raw or centred (offsets handled as
