@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 from ._version import __version__
 from .errors import (
     ClosedLoopWarning, DataError, DataQualityWarning, FilterError, IllConditionedWarning,
-    IrregularSamplingWarning, ModelFileError, MoliError, OptionError, OrderBoundWarning,
+    IrregularSamplingWarning, ModelFileError, MoliError, NoFitWarning, OptionError, OrderBoundWarning,
     SamplingPeriodWarning, ShortValidationWarning, StructureError, UnstableModelWarning, WeakReferenceWarning,
 )
 
@@ -49,7 +49,7 @@ __all__ = [
     "__version__", "MoliError", "DataError", "FilterError", "IllConditionedWarning",
     "ModelFileError", "OptionError", "StructureError", "UnstableModelWarning", "DataQualityWarning",
     "OrderBoundWarning", "ClosedLoopWarning", "IrregularSamplingWarning", "SamplingPeriodWarning",
-    "ShortValidationWarning", "WeakReferenceWarning",
+    "ShortValidationWarning", "WeakReferenceWarning", "NoFitWarning",
     *_HOMES, *_SUBPACKAGES,
 ]
 

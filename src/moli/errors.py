@@ -15,7 +15,7 @@ __all__ = [
     "ControlDesignError", "wrong_type",
     "UnstableModelWarning", "IllConditionedWarning", "DataQualityWarning", "OrderBoundWarning",
     "ClosedLoopWarning", "IrregularSamplingWarning", "SamplingPeriodWarning", "ShortValidationWarning",
-    "WeakReferenceWarning",
+    "WeakReferenceWarning", "NoFitWarning",
 ]
 
 
@@ -94,6 +94,10 @@ class OrderBoundWarning(UserWarning):
 
 class ShortValidationWarning(UserWarning):
     """The validation part that chose the order is too short to tell the orders apart."""
+
+
+class NoFitWarning(UserWarning):
+    """The returned model fits an output no better than that output's mean on the validation data."""
 
 
 class ClosedLoopWarning(UserWarning):

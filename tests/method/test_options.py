@@ -153,3 +153,14 @@ def test_nmax_below_the_output_count_is_refused():
     est, val = moli.example_data(N=300, seed=2).split(200)
     with pytest.raises(OptionError, match="nmax must be at least the number of outputs, 3"):
         moli.identify(est, val, nmax=2)
+
+
+def test_identify_help_lists_every_option_with_its_default():
+    import pydoc
+    from dataclasses import fields
+
+    text = pydoc.render_doc(moli.identify, renderer=pydoc.plaintext)
+    for field in fields(moli.IdentifyOptions):
+        assert f"{field.name} : default {getattr(moli.IdentifyOptions(), field.name)!r}" in text, field.name
+    # placed among the parameters, before what identify returns
+    assert text.index("Other Parameters") < text.index("Returns")

@@ -224,3 +224,34 @@ def test_the_next_order_is_judged_on_the_record_it_was_fitted_on(seed):
     delayed_val = moli.IOData(val.y[:-shift], val.u[shift:])
     with pytest.warns(moli.OrderBoundWarning, match="order 2 fits it clearly better still"):
         moli.identify(delayed_est, delayed_val, nmax=1, delays=shift)
+
+
+def _fit_warnings(data, **options):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        result = moli.identify(data, **options)
+    return result, [w for w in caught if issubclass(w.category, moli.NoFitWarning)]
+
+
+def test_a_model_of_noise_says_it_fits_no_output():
+    # outputs independent of the inputs: no order can beat the outputs' means on fresh samples,
+    # yet the path still "selects" an order (49 rows, the record of the failure reported)
+    rng = np.random.default_rng(0)
+    _, found = _fit_warnings(moli.IOData(rng.standard_normal((49, 2)), rng.standard_normal((49, 2))))
+    assert len(found) == 1 and "every output (y1, y2)" in str(found[0].message)
+    assert found[0].filename == __file__            # it points at the caller of identify
+
+
+def test_only_the_output_that_is_noise_is_named():
+    # y1 follows the example plant, y2 is noise of its own: y2 alone is named
+    data = moli.example_data(N=600, seed=2)
+    rng = np.random.default_rng(5)
+    mixed = moli.IOData(np.column_stack([data.y[:, 0], rng.standard_normal(600)]), data.u)
+    result, found = _fit_warnings(mixed, nmax=6)
+    assert len(found) == 1 and "output y2 no better than its mean" in str(found[0].message)
+    assert result.selected.vaf[0] > 50
+
+
+def test_a_model_that_fits_gets_no_such_warning():
+    _, found = _fit_warnings(moli.example_data(N=600, seed=2), nmax=6)
+    assert found == []

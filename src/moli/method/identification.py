@@ -13,14 +13,14 @@ from typing import Any, Callable
 
 from ..data.iodata import IOData
 from .continuous.identification import ContinuousResult, identify_continuous
-from .options.identify_options import IdentifyOptions
+from .options import IdentifyOptions, options_section
 from .pipeline.finishing import record_of_making, refine_and_finish
 from .pipeline.interruption import Phases, post_path_phases
 from .pipeline.order_choice import choose_order
 from .pipeline.preparation import call_options, check_hooks, prepare, split_records
 from .result import IdentificationResult
 from .search.greedy_path import PathStep, StructureSearch, path_until_interrupted
-from .selection.checks import warn_if_at_bound, warn_if_short_selection
+from .selection.checks import warn_if_at_bound, warn_if_no_better_than_mean, warn_if_short_selection
 
 __all__ = ["IdentificationResult", "identify"]
 
@@ -56,7 +56,8 @@ def identify(
         Fields of :class:`IdentifyOptions` changed for this call:
         ``identify(est, val, nmax=12)`` is ``identify(est, val, IdentifyOptions(nmax=12))``.
         ``preset="paper"`` (or "bounded", "improved", "fast", "default") starts from that preset instead
-        of the default; it cannot be combined with ``options``.
+        of the default; it cannot be combined with ``options``. Every field, with its default, is
+        listed under Other Parameters.
 
     Returns
     -------
@@ -111,9 +112,15 @@ def identify(
                                               None if options.refine == "none" else refined)
         warn_if_at_bound(selection.path, selection.index, nmax, prepared.validation, options.x0, beyond=beyond)
     warn_if_short_selection(selection.path, prepared.scored.N, prepared.scored.m, stacklevel=2)
+    warn_if_no_better_than_mean(returned.model, prepared.scored, options.x0, stacklevel=2)
     return IdentificationResult(
         model=model, path=selection.path, selected_index=selection.index, estimation=prepared.estimation,
         validation=prepared.validation, validation_source=source, options=options, nmax=nmax, omega=prepared.grid,
         max_radius=prepared.radius, seconds=time.perf_counter() - start,
         interrupted=interrupted or bool(phases.skipped), skipped=phases.skipped,
     )
+
+
+if identify.__doc__:        # None under python -OO
+    # every option with its default, generated from IdentifyOptions so that the help cannot drift
+    identify.__doc__ = identify.__doc__.replace("    Returns\n    -------\n", options_section() + "    Returns\n    -------\n", 1)

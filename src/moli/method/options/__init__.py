@@ -1,6 +1,7 @@
 """IdentifyOptions: every choice of an identification (docs/method.md §13), and the checks of
 single option values."""
 
+from .documentation import options_section
 from .identify_options import PRESETS, IdentifyOptions
 
-__all__ = ["IdentifyOptions", "PRESETS"]
+__all__ = ["IdentifyOptions", "PRESETS", "options_section"]

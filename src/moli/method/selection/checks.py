@@ -4,7 +4,9 @@ The order rule ranks the path's models by their validation scores. A record of a
 dozen samples still yields a path and a "best" order, and nothing in the scores says
 that they rest on too few samples: :func:`warn_if_short_selection` says so. An order at
 the search's bound may call for a higher one, but only where the bound order wins by more
-than the validation record's chance: :func:`warn_if_at_bound`.
+than the validation record's chance: :func:`warn_if_at_bound`. And a model whose simulation
+fits an output no better than that output's mean has learnt nothing the record can show of
+it, whatever order was "selected": :func:`warn_if_no_better_than_mean`.
 """
 
 from __future__ import annotations
@@ -15,16 +17,19 @@ from typing import Sequence
 import numpy as np
 
 from ...data.iodata import IOData
-from ...errors import MoliError, OrderBoundWarning, ShortValidationWarning
+from ...errors import MoliError, NoFitWarning, OrderBoundWarning, ShortValidationWarning
+from ...models.statespace import StateSpaceModel
+from ...validation.comparison import compare
 from .candidates import refined_as
-from .order_rules import clearly_better
+from .order_rules import PAIRED_Z, clearly_better
+from .paired_test import error_shares, paired_difference
 from ..refinement.refined_steps import RefinedSteps
 from ..refinement.levenberg_marquardt import is_refined
 from ..structure.rows import parameter_counts
 from ..search.greedy_path import PathStep, StructureSearch, next_step
 
 __all__ = ["SAMPLES_PER_PARAMETER", "BOUND_Z", "selection_samples_needed", "warn_if_short_selection",
-           "warn_if_at_bound"]
+           "warn_if_at_bound", "outputs_no_better_than_mean", "warn_if_no_better_than_mean"]
 
 # A rule of thumb, not a test: the order rule compares validation VAFs that differ by a
 # point or two between neighbouring orders, and a VAF scored on N samples moves by about
@@ -174,4 +179,53 @@ def warn_if_at_bound(path: Sequence[PathStep], selected: int, nmax: int, validat
         f"validation data clearly better than every lower order{still}: a higher order may fit better; "
         f"raise it with nmax=... (moli fit --nmax)",
         OrderBoundWarning, stacklevel=stacklevel + 1,
+    )
+
+
+def outputs_no_better_than_mean(model: StateSpaceModel, validation: IOData, x0: str = "zero",
+                                z: float = PAIRED_Z) -> list[int]:
+    """The outputs whose validation mean ``model``'s simulation does not beat by more than ``z``
+    paired standard errors (:func:`moli.method.selection.paired_test.paired_difference`).
+
+    The mean is what a VAF of 0 stands for: a model at or below it on an output explains none
+    of that output, and one a little above it on a short record may do so by chance alone.
+
+    Examples
+    --------
+    >>> import numpy as np, moli
+    >>> rng = np.random.default_rng(0)
+    >>> noise = moli.IOData(rng.standard_normal((60, 1)), rng.standard_normal((60, 1)))
+    >>> outputs_no_better_than_mean(moli.StateSpaceModel([[0.5]], [[1.0]], [[1.0]]), noise)
+    [0]
+    """
+    yhat = compare(model, validation, x0).yhat
+    lost = []
+    for j in range(validation.p):
+        y = validation.y[:, j : j + 1]
+        mean = np.broadcast_to(y.mean(axis=0), y.shape)
+        # points by which the mean loses to the model; the model beats it only where that is clear
+        worse, margin = paired_difference(error_shares(y, mean), error_shares(y, yhat[:, j : j + 1]), z)
+        if not (np.isfinite(worse) and worse > margin):
+            lost.append(j)
+    return lost
+
+
+def warn_if_no_better_than_mean(model: StateSpaceModel, validation: IOData, x0: str = "zero",
+                                stacklevel: int = 2) -> None:
+    """Issue a :class:`NoFitWarning` naming the outputs :func:`outputs_no_better_than_mean` finds.
+
+    ``stacklevel`` as for :func:`warnings.warn`, counted from the caller.
+    """
+    lost = outputs_no_better_than_mean(model, validation, x0)
+    if not lost:
+        return
+    names = ", ".join(model.output_names[j] for j in lost)
+    which = (f"every output ({names})" if len(lost) == validation.p > 1
+             else f"output{'s' if len(lost) > 1 else ''} {names}")
+    warnings.warn(
+        f"the model fits {which} no better than {'its' if len(lost) == 1 else 'their'} mean on the "
+        "validation data: whatever order was selected, "
+        "it explains nothing of them that the record can show; check that the right channels are inputs "
+        "and outputs, or give a longer or better excited record",
+        NoFitWarning, stacklevel=stacklevel + 1,
     )
