@@ -10,7 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import moli
+from moli.method import identification
 from moli.method.pipeline import finishing, order_choice
+from moli.method.pipeline.interruption import SELECTION_CHECKS
 from moli.method.refinement import refined_steps
 from moli.method.structure.rows import largest_order, samples_needed
 from moli.method.selection.checks import SAMPLES_PER_PARAMETER, selection_samples_needed
@@ -37,6 +39,18 @@ def test_ctrl_c_in_the_covariance_keeps_the_refined_model(halves, monkeypatch):
     # the same computation up to the cut: the same model to the bit
     np.testing.assert_array_equal(cut.model.A, whole.model.A)
     assert "interrupted: skipped covariance, noise model" in cut.summary()
+
+
+def test_ctrl_c_after_the_noise_model_keeps_the_complete_model(halves, monkeypatch):
+    # the model is complete once the noise model is attached: Ctrl-C during the checks of its
+    # selection that follow (warnings only) skips them and keeps it
+    whole = moli.identify(*halves, nmax=NMAX)
+    monkeypatch.setattr(identification, "warn_if_short_selection", interrupt)
+    cut = moli.identify(*halves, nmax=NMAX)
+    assert cut.interrupted and cut.skipped == (SELECTION_CHECKS,)
+    assert cut.model.info["interrupted"] == {"skipped": [SELECTION_CHECKS]}
+    assert cut.model.K is not None and cut.model.cov_factor is not None
+    np.testing.assert_array_equal(cut.model.A, whole.model.A)
 
 
 def test_ctrl_c_in_the_refinement_keeps_the_unrefined_model(halves, monkeypatch):

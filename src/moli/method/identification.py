@@ -15,7 +15,7 @@ from ..data.iodata import IOData
 from .continuous.identification import ContinuousResult, identify_continuous
 from .options import IdentifyOptions, options_section
 from .pipeline.finishing import record_of_making, refine_and_finish
-from .pipeline.interruption import Phases, post_path_phases
+from .pipeline.interruption import SELECTION_CHECKS, Phases, post_path_phases
 from .pipeline.order_choice import choose_order
 from .pipeline.preparation import call_options, check_hooks, prepare, split_records
 from .result import IdentificationResult
@@ -104,20 +104,24 @@ def identify(
     if not phases.skipped:
         refine_and_finish(selection, search, refined, prepared, phases, interrupted=interrupted)
     returned = selection.step               # delay-free, as the search scores it: for the bound warning
-    model = record_of_making(selection, prepared, phases.skipped)
-    model.warn_if_unstable(stacklevel=2)
-    # a fixed order is the caller's choice, not the search running into its bound
-    if not interrupted and selection.step.order != options.order:
-        beyond = None if phases.skipped else (search, selection.at_bound, returned,
-                                              None if options.refine == "none" else refined)
-        warn_if_at_bound(selection.path, selection.index, nmax, prepared.validation, options.x0, beyond=beyond)
-    warn_if_short_selection(selection.path, prepared.scored.N, prepared.scored.m, stacklevel=2)
-    warn_if_no_better_than_mean(returned.model, prepared.scored, options.x0, stacklevel=2)
+    model, skipped = record_of_making(selection, prepared, phases.skipped), phases.skipped
+    try:
+        model.warn_if_unstable(stacklevel=2)
+        # a fixed order is the caller's choice, not the search running into its bound
+        if not interrupted and selection.step.order != options.order:
+            beyond = None if skipped else (search, selection.at_bound, returned,
+                                           None if options.refine == "none" else refined)
+            warn_if_at_bound(selection.path, selection.index, nmax, prepared.validation, options.x0, beyond=beyond)
+        warn_if_short_selection(selection.path, prepared.scored.N, prepared.scored.m, stacklevel=2)
+        warn_if_no_better_than_mean(returned.model, prepared.scored, options.x0, stacklevel=2)
+    except KeyboardInterrupt:       # the model is complete: Ctrl-C during its checks skips them alone
+        skipped += (SELECTION_CHECKS,)
+        model.info["interrupted"] = {"skipped": list(skipped)}
     return IdentificationResult(
         model=model, path=selection.path, selected_index=selection.index, estimation=prepared.estimation,
         validation=prepared.validation, validation_source=source, options=options, nmax=nmax, omega=prepared.grid,
         max_radius=prepared.radius, seconds=time.perf_counter() - start,
-        interrupted=interrupted or bool(phases.skipped), skipped=phases.skipped,
+        interrupted=interrupted or bool(skipped), skipped=skipped,
     )
 
 

@@ -13,7 +13,11 @@ from typing import Callable
 
 from ..options.identify_options import IdentifyOptions
 
-__all__ = ["post_path_phases", "Phases"]
+__all__ = ["post_path_phases", "Phases", "SELECTION_CHECKS"]
+
+# What Ctrl-C skips when it comes after the model is complete: the warnings about its selection
+# (unstable, order at the bound, short validation, no better than the mean); the model is kept.
+SELECTION_CHECKS = "checks of the selection"
 
 
 def post_path_phases(options: IdentifyOptions, long_record: bool, direct: bool = False) -> list[str]:
