@@ -14,6 +14,7 @@ from matplotlib.figure import Figure
 
 from ..data.display import figure_label
 from ..data.iodata import IOData
+from ..models.pole_bands import pole_support
 from ..models.statespace import StateSpaceModel
 from ..method.search.greedy_path import PathStep
 from ..validation.comparison import Comparison
@@ -384,14 +385,20 @@ def residual_correlations(analysis: ResidualAnalysis) -> Figure:
     return fig
 
 
-def settling_samples(model: StateSpaceModel, cap: int = 2000) -> int:
-    """A step-response length that shows the slowest stable pole settle (5 time constants).
+def settling_samples(model: StateSpaceModel, record_samples: int | None = None, cap: int = 2000) -> int:
+    """A step-response length that shows the slowest pole the record supports settle (5 time constants).
+
+    A pole the data cannot tell from the unit circle, or slower than the record
+    (:func:`moli.models.pole_bands.pole_support`), would stretch the plot to its own settling and
+    squeeze the dynamics the record does show into its first percent: it sets no length.
 
     Parameters
     ----------
     model : StateSpaceModel
+    record_samples : int, optional
+        Samples of the estimation record.
     cap : int, default 2000
-        Upper bound, reached by poles close to or outside the unit circle.
+        Upper bound, reached by a supported pole close to the unit circle.
 
     Returns
     -------
@@ -401,10 +408,9 @@ def settling_samples(model: StateSpaceModel, cap: int = 2000) -> int:
     --------
     >>> settling_samples(StateSpaceModel([[0.5]], [[1.0]], [[1.0]]))
     20
+    >>> settling_samples(StateSpaceModel(np.diag([0.999, 0.9]), [[1.0], [1.0]], [[1.0, 1.0]]), 500)
+    48
     """
-    radius = float(np.max(np.abs(model.poles()), initial=0.0))
-    if radius >= 1.0:
-        return cap
-    if radius == 0.0:
-        return 20
-    return int(min(cap, max(20, np.ceil(5.0 / -np.log(radius)))))
+    supported = [s.time_constant for s in pole_support(model, record_samples) if s.supported]
+    slowest = max(supported, default=0.0)
+    return int(min(cap, max(20, np.ceil(5.0 * slowest))))

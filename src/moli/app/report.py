@@ -25,6 +25,7 @@ from ..data.iodata import IOData, longest_segment
 from ..errors import DataError
 from ..method.identification import IdentificationResult
 from ..method.search.greedy_path import PathStep
+from ..models.pole_bands import pole_support
 from ..validation.comparison import compare
 from ..validation.frequency import EmpiricalResponse, empirical_frequency_response
 from ..validation.residuals import SAMPLES_PER_LAG, ResidualAnalysis, residual_analysis
@@ -101,9 +102,18 @@ def _model_facts(result: IdentificationResult) -> str:
         "selected by": f"{result.selection}, on {result.validation.N} validation samples "
                        f"({result.validation_source})",
     }
+    unsupported = [s for s in pole_support(model, result.estimation.N) if not s.supported]
+    if unsupported:
+        facts["poles the record cannot resolve"] = "; ".join(
+            f"{_pole(s.pole)} ({s.reason(result.estimation.N, figures.BAND_CONFIDENCE)})" for s in unsupported)
     if result.loop_method is not None:
         facts["closed loop"] = result.loop_method
     return facts_table(facts)
+
+
+def _pole(z: complex) -> str:
+    """A pole as text: a real one as its value, a complex one with its imaginary part's size."""
+    return f"{z.real:.4f}" if z.imag == 0 else f"{z.real:.4f} {'+' if z.imag > 0 else '-'} {abs(z.imag):.4f}j"
 
 
 def _provenance(result: IdentificationResult, data_file: str | Path | None) -> str:
@@ -267,7 +277,7 @@ def write_report(
         "validation": (figures.measured_vs_simulated(validation, comparison),
                        validation_caption(result)),
         "poles": (figures.poles(model), "Poles of the selected model and the unit circle."),
-        "step_responses": (figures.step_responses(model, figures.settling_samples(model)),
+        "step_responses": (figures.step_responses(model, figures.settling_samples(model, result.estimation.N)),
                            "Unit-step responses from each input to each output (deviations)" + bands),
         "magnitude": (figures.bode_magnitude(model, spectrum),
                       "Gain of each channel against frequency, up to the Nyquist frequency" + no_spectrum
