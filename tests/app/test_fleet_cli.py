@@ -14,6 +14,8 @@ from click.testing import CliRunner, Result
 import moli
 from moli.app import cli
 from moli.data.files import file_sha256
+from moli.app import fleet_files
+from moli.fleets import FleetEntry
 from moli.fleets import records as fleet_module
 
 CHANNELS = ["--inputs", "u1,u2,u3", "--outputs", "y1,y2,y3"]
@@ -195,3 +197,15 @@ def test_validate_many_does_not_overwrite_its_tables_without_force(tmp_path, pla
     assert (models / "validation.csv").stat().st_mtime_ns == written
     forced = run("validate-many", str(models), str(plant / "loop0.csv"), "--force")
     assert forced.exit_code == 0, forced.output + forced.stderr
+
+
+def test_a_slow_summary_is_rewritten_only_once_its_spacing_has_passed(tmp_path, monkeypatch):
+    monkeypatch.setattr(fleet_files, "QUICK_WRITE_SECONDS", 0.0)   # every rewrite counts as slow
+    monkeypatch.setattr(fleet_files, "WRITE_SPACING", 1e9)         # and the spacing never passes
+    sources = {name: tmp_path / f"{name}.csv" for name in ("a", "b")}
+    summary = fleet_files.FleetSummary(sources, tmp_path)
+    summary.add(FleetEntry("a", None, "DataError: bad", 0.1), {})  # the first: nothing written yet
+    summary.add(FleetEntry("b", None, "DataError: bad", 0.1), {})  # deferred
+    assert list(rows(tmp_path / "summary.csv")) == ["a"]
+    summary.write("2 records on this process")
+    assert list(rows(tmp_path / "summary.csv")) == ["a", "b"]

@@ -113,12 +113,15 @@ def write_summary(
                          for row in rows)
     marks = list(flagged) if flagged is not None else [False] * len(rows)
     order = sorted(range(len(rows)), key=lambda i: (rows[i].get(sort_by) is None, -(rows[i].get(sort_by) or 0)))
-    labels = {str(row.get("name")): "; ".join(f"W{k}" for k, (_, names) in enumerate(warnings, 1)
-                                             if row.get("name") in names) for row in rows}
+    raised: dict[str, list[str]] = {}
+    for k, (_, names) in enumerate(warnings, 1):
+        for name in names:
+            raised.setdefault(str(name), []).append(f"W{k}")
     head = "".join(f'<th onclick="sortBy({k})">{html.escape(c)}</th>' for k, c in enumerate(columns))
     body = []
     for i in order:
-        shown = {**rows[i], "warnings": labels[str(rows[i].get("name"))] or None} if warnings else rows[i]
+        shown = {**rows[i], "warnings": "; ".join(raised.get(str(rows[i].get("name")), [])) or None} \
+            if warnings else rows[i]
         cells = "".join(
             f'<td class="text">{html.escape(_cell(shown.get(c)))}</td>'
             if isinstance(shown.get(c), str) else f"<td>{html.escape(_cell(shown.get(c)))}</td>"
