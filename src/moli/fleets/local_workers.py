@@ -7,8 +7,8 @@ call at a time, so that
 
 - a call that runs longer than its timeout is ended by killing its worker (whatever it
   is doing, native code included); a fresh worker takes the next call;
-- a call whose worker dies (killed, out of memory, a crash) is run once more on a fresh
-  worker; a second death fails that call alone;
+- a call whose worker dies (killed, out of memory, a crash) is run once more, on another
+  worker (a fresh one replaces the dead); a second death fails that call alone;
 - every worker watches the process that started it and ends itself within
   :data:`PARENT_POLL_SECONDS` once that process is gone, however it ended
   (``kill -9`` included): no worker outlives the run.
@@ -32,6 +32,7 @@ import threading
 import time
 from collections import deque
 from dataclasses import dataclass
+from multiprocessing.reduction import ForkingPickler
 from typing import Any, Callable, Iterator, Sequence
 
 from ..errors import MoliError
@@ -63,24 +64,20 @@ def _watch_parent(parent: int) -> None:
 def _serve(connection: multiprocessing.connection.Connection, parent: int) -> None:
     """A worker's life: run each ``(index, function, args)`` received, send back the outcome."""
     threading.Thread(target=_watch_parent, args=(parent,), daemon=True, name="moli-parent-watch").start()
-    while True:
-        try:
-            task = connection.recv()
-        except (EOFError, OSError):  # the pipe closed: the starter is gone or done
-            return
-        if task is None:
-            return
-        index, function, args = task
-        connection.send((index, "started", None))  # the call's time runs from here, not from the start-up
-        try:
-            outcome: tuple[str, Any] = ("value", function(*args))
-        except Exception as exc:  # the call's own error travels back as its result
-            outcome = ("error", exc)
-        try:
-            connection.send((index, *outcome))
-        except Exception as exc:  # an outcome that cannot be pickled
-            connection.send((index, "error", RuntimeError(f"its result could not be sent back: "
-                                                          f"{type(exc).__name__}: {exc}")))
+    with contextlib.suppress(EOFError, OSError):  # the pipe closed: the starter is gone or done with us
+        while (task := connection.recv()) is not None:
+            index, function, args = task
+            connection.send((index, "started", None))  # the call's time runs from here, not from the start-up
+            try:
+                outcome: tuple[str, Any] = ("value", function(*args))
+            except Exception as exc:  # the call's own error travels back as its result
+                outcome = ("error", exc)
+            try:
+                message = ForkingPickler.dumps((index, *outcome))
+            except Exception as exc:  # an outcome that cannot be pickled
+                message = ForkingPickler.dumps((index, "error", RuntimeError(
+                    f"its result could not be sent back: {type(exc).__name__}: {exc}")))
+            connection.send_bytes(message)
 
 
 @dataclass
@@ -182,7 +179,8 @@ def worker_processes(function: Callable[..., Any], calls: Sequence[tuple[Any, ..
             for worker in team:
                 if worker.index is None and pending:
                     worker.index, worker.started = pending.popleft(), None
-                    worker.connection.send((worker.index, function, calls[worker.index]))
+                    with contextlib.suppress(OSError):  # a worker that died idle: its pipe's end shows it below
+                        worker.connection.send((worker.index, function, calls[worker.index]))
             busy = [worker for worker in team if worker.index is not None]
             deadlines = [w.started + timeout for w in busy if timeout is not None and w.started is not None]
             wait = max(0.0, min(deadlines) - time.monotonic()) if deadlines else None
