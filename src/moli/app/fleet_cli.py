@@ -146,10 +146,10 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
         read = {"inputs": names(inputs), "outputs": names(outputs), "Ts": ts}
         summary = FleetSummary(sources, out_dir)
         for name, source in sources.items():
-            kept, redo = kept_model(out_dir / f"{name}.json", options, summary.sha256(name), read) \
-                if resume else (None, None)
+            sha256 = summary.sha256(name)  # each file's as the run starts, the one its model records
+            kept, redo = kept_model(out_dir / f"{name}.json", options, sha256, read) if resume else (None, None)
             if kept is not None:
-                summary.rows[name] = kept
+                summary.rows[name] = {**kept, "source": str(source)}
             elif redo is not None:
                 click.echo(f"  redone: {console_text(name)}: {console_text(redo)}", err=True)
         out_dir.mkdir(parents=True, exist_ok=True)
@@ -160,6 +160,9 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
             fleet = identify_many(to_run, options, executor=executor, n_jobs=workers, read_options=read,
                                   timeout=timeout, on_entry=lambda entry: summary.add(entry, read)) \
                 if to_run else None
+        except KeyboardInterrupt:
+            summary.write()  # every record finished so far, the last one included
+            raise
         finally:
             if executor is not None:
                 executor.close()
@@ -174,9 +177,7 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
             if row.get("error"):
                 click.echo(f"  {row['status']}: {console_text(row['name'])}: {console_text(row['error'])}", err=True)
         for message, named in summary.warnings():
-            who = console_text(named[0]) if len(named) == 1 else \
-                f"{len(named)} records ({console_text(', '.join(named[:NAMES_SHOWN]))}{', ...' if len(named) > NAMES_SHOWN else ''})"
-            click.echo(f"  warning: {who}: {console_text(message)}", err=True)
+            click.echo(f"  warning: {_raised_by(named)}: {console_text(message)}", err=True)
         click.echo(f"summary written to {csv_path} and {html_path}")
         if counts["failed"] or counts["timed out"]:
             raise click.exceptions.Exit(FAILED)
@@ -230,6 +231,14 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
             raise click.exceptions.Exit(FAILED)
 
     return [fit_many, validate_many]
+
+
+def _raised_by(named: list[str]) -> str:
+    """``loop1``, or ``3 records (loop0, loop1, loop2)``, the list cut after NAMES_SHOWN names."""
+    if len(named) == 1:
+        return console_text(named[0])
+    shown = ", ".join(named[:NAMES_SHOWN]) + (", ..." if len(named) > NAMES_SHOWN else "")
+    return f"{len(named)} records ({console_text(shown)})"
 
 
 def _number(value: float | None) -> str:

@@ -72,7 +72,7 @@ def run_calls(
     Yields
     ------
     description : str
-        Where the calls run, e.g. ``"loky, 2 processes"``.
+        Where the calls run, e.g. ``"2 processes"``.
     done : iterator of (int, object, BaseException or None)
         Per call, in completion order: its position, its value, and the error that
         kept the backend from returning it (a lost worker, a timeout), or None. On

@@ -102,7 +102,7 @@ class FleetResult:
     ----------
     entries : list of FleetEntry
     backend : str
-        Where it ran, e.g. ``"loky, 2 processes"`` or ``"dask, tcp://10.0.0.5:8786"``.
+        Where it ran, e.g. ``"2 processes"`` or ``"dask, tcp://10.0.0.5:8786"``.
     seconds : float
         Wall time of the whole fleet.
 
