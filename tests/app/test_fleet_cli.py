@@ -200,7 +200,7 @@ def test_validate_many_does_not_overwrite_its_tables_without_force(tmp_path, pla
 
 
 def test_a_slow_summary_is_rewritten_only_once_its_spacing_has_passed(tmp_path, monkeypatch):
-    monkeypatch.setattr(fleet_files, "QUICK_WRITE_SECONDS", 0.0)   # every rewrite counts as slow
+    monkeypatch.setattr(fleet_files, "ALWAYS_REWRITTEN_ROWS", 0)     # every summary counts as large
     monkeypatch.setattr(fleet_files, "WRITE_SPACING", 1e9)         # and the spacing never passes
     sources = {name: tmp_path / f"{name}.csv" for name in ("a", "b")}
     summary = fleet_files.FleetSummary(sources, tmp_path)

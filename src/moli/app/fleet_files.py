@@ -24,12 +24,13 @@ __all__ = ["FleetSummary", "save_record", "kept_model", "grouped_warnings", "FIL
 
 FIT_COLUMNS = ("name", "status", "order", "fit", "vaf", "validation_N", "seconds", "warnings", "error", "source")
 STATUSES = ("identified", "kept", "failed", "timed out")
-# The summary is rewritten after every record while a rewrite takes less than
-# QUICK_WRITE_SECONDS (measured on a local disk, fsync included: 16 ms at 10 rows, 25 ms at
-# 1000, 60 ms at 3000, 170 ms at 10000); slower, it waits until WRITE_SPACING times its
-# last duration has passed, so that writing it takes at most 1/20 of the run instead of
-# time growing as the square of the records. The models are always written as each finishes.
-QUICK_WRITE_SECONDS = 0.05
+# The summary is rewritten after every record of a fleet of up to ALWAYS_REWRITTEN_ROWS
+# rows (a rewrite, fsync included, measured on a local disk: 16 ms at 10 rows, 25 ms at
+# 1000, 60 ms at 3000, 170 ms at 10000). Beyond, it waits until WRITE_SPACING times its
+# last rewrite's duration has passed, so that writing it takes at most 1/20 of the run
+# instead of time growing as the square of the records. The models are always written as
+# each finishes.
+ALWAYS_REWRITTEN_ROWS = 1000
 WRITE_SPACING = 19.0
 
 # How a grouped warning names each record's own file (its path differs from record to record).
@@ -66,7 +67,7 @@ class FleetSummary:
 
     def add(self, entry: FleetEntry, read: Mapping[str, Any]) -> None:
         """Save the entry's model (a model that cannot be written fails its row alone), then the
-        summary (unless a large one was rewritten a moment ago: :data:`QUICK_WRITE_SECONDS`)."""
+        summary (unless a large one was rewritten a moment ago: :data:`ALWAYS_REWRITTEN_ROWS`)."""
         row = {**entry.row(), "source": str(self.sources[entry.name]), "warnings": list(entry.warnings),
                "status": "timed out" if entry.timed_out else "failed" if entry.error else "identified",
                "validation_N": None if entry.result is None else entry.result.validation.N}
@@ -79,7 +80,7 @@ class FleetSummary:
                            error=f"the model was identified but not written: {type(exc).__name__}: {exc}")
         self.rows[entry.name] = row
         last, took = self._written
-        if took < QUICK_WRITE_SECONDS or time.monotonic() - last >= WRITE_SPACING * took:
+        if len(self.rows) <= ALWAYS_REWRITTEN_ROWS or time.monotonic() - last >= WRITE_SPACING * took:
             self.write()
 
     def counts(self) -> dict[str, int]:
