@@ -76,7 +76,7 @@ def run_calls(
     done : iterator of (int, object, BaseException or None)
         Per call, in completion order: its position, its value, and the error that
         kept the backend from returning it (a lost worker, a timeout), or None. On
-        local processes a call whose worker died is retried once on a fresh worker,
+        local processes a call whose worker died is retried once, on another worker,
         so a call that kills its worker fails alone (:class:`LostWorkerError`).
 
     Raises

@@ -254,7 +254,7 @@ def identify_many(
         raise OptionError(f"on_entry must be a callable or None, got {on_entry!r}")
     given = {name: item for name, item in items}
     if executor is None or isinstance(executor, str):
-        # local workers may have started in another folder than this process's current one
+        # a joblib backend's workers live on from call to call, in the folder they started in
         items = [(name, absolute_paths(item)) for name, item in items]
     calls = [(name, item, options or IdentifyOptions(), reading) for name, item in items]
     entries: dict[int, FleetEntry] = {}
