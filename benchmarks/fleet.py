@@ -1,7 +1,7 @@
 """A fleet of loop records, and one very long record, on local processes and Dask.
 
 1. ``RECORDS`` records of a typical loop test (2x2, ``SAMPLES`` samples, a seeded random
-   4-state plant each) identified serially, on 2 local processes (loky) and on a
+   4-state plant each) identified serially, on 2 local processes (moli's own workers) and on a
    2-worker Dask LocalCluster; the models must be the same bit for bit.
 2. A ``LONG``-sample 2x2 record (order 4) reduced over chunks of ``CHUNK`` samples generated on
    the Dask workers (moli.fleets.chunk_reduction.estimate_chunks), against one

@@ -60,22 +60,22 @@ def test_each_entry_is_the_identify_result_in_input_order(serial):
     assert serial["loop1"] is serial[1]
 
 
-@pytest.mark.parametrize("executor", ["loky", "executor", "threading"])
+@pytest.mark.parametrize("executor", ["processes", "executor", "threading"])
 def test_every_local_backend_gives_the_serial_results(serial, executor):
     if executor == "executor":  # any concurrent.futures executor (processes: the test below)
         with concurrent.futures.ThreadPoolExecutor(2) as pool:
             other = identify_many(records(), OPTIONS, executor=pool, progress=False)
         assert other.backend == "ThreadPoolExecutor"
-    elif executor == "loky":
+    elif executor == "processes":
         other = identify_many(records(), OPTIONS, n_jobs=2, progress=False)
-        assert other.backend == "loky, 2 processes"
+        assert other.backend == "2 processes"
     else:
         other = identify_many(records(), OPTIONS, executor="threading", n_jobs=2, progress=False)
         assert other.backend == "joblib threading, 2 workers"
     assert_same_entries(serial, other)
 
 
-def test_without_joblib_local_processes_come_from_concurrent_futures(serial, monkeypatch):
+def test_local_processes_need_no_joblib(serial, monkeypatch):
     monkeypatch.setitem(sys.modules, "joblib", None)  # as if the distributed extra were absent
     other = identify_many(records(), OPTIONS, n_jobs=2, progress=False)
     assert other.backend == "2 processes"

@@ -14,6 +14,7 @@ from click.testing import CliRunner
 import moli
 from moli.app import cli
 from moli.fleets import records as fleet_module
+from moli.fleets.backends import RecordTimeoutError, run_calls
 from moli.fleets.records import identify_many
 
 OPTIONS = moli.IdentifyOptions(nmax=4)
@@ -94,3 +95,35 @@ def test_threads_keep_each_records_warnings_and_the_callers_filters(monkeypatch)
     assert warnings.filters == before  # no "always" filter left behind in the caller
     for k, entry in enumerate(fleet):
         assert entry.warnings == (f"record {k} first", f"record {k} second")
+
+
+def sleeps(seconds):
+    time.sleep(seconds)
+    return os.getpid()
+
+
+def returns_a_function(_):
+    return lambda: None  # a lambda cannot be pickled back
+
+
+def test_a_call_over_its_timeout_ends_its_worker_and_the_next_runs_on_a_fresh_one():
+    # 3600 s against a 2 s timeout, and 0 s calls: no machine is slow enough to blur them
+    with run_calls(sleeps, [(0,), (3600,), (0,)], None, 1, timeout=2) as (backend, done):
+        results = sorted(done, key=lambda triple: triple[0])
+    assert backend == "1 process"  # with a timeout, even one worker is a process of its own
+    (_, first, ok_first), (_, _, timed_out), (_, last, ok_last) = results
+    assert ok_first is None and ok_last is None and first != os.getpid()
+    assert isinstance(timed_out, RecordTimeoutError) and "longer than the 2 s allowed" in str(timed_out)
+    assert last != first  # the worker that ran the stuck call was ended; another ran the last one
+
+
+def test_a_result_that_cannot_travel_back_fails_its_call_alone():
+    with run_calls(returns_a_function, [(1,), (2,)], None, 2) as (_, done):
+        errors = [str(error) for _, _, error in done]
+    assert len(errors) == 2 and all(e.startswith("its result could not be sent back") for e in errors)
+
+
+def test_a_timeout_needs_local_processes():
+    with pytest.raises(moli.OptionError, match="timeout ends the worker process of a call"):
+        identify_many([moli.example_data(N=300, seed=1)], OPTIONS, executor="threading", timeout=5,
+                      progress=False)

@@ -1,7 +1,8 @@
 """The fleet commands: ``moli fit-many`` and ``moli validate-many``.
 
 ``fit-many`` identifies every record matched by glob patterns (on local processes or
-a Dask scheduler) and writes one model file per record and a summary table;
+a Dask scheduler) and writes one model file per record and a summary table, each
+model and the table as each record finishes (``--resume`` keeps them in a later run);
 ``validate-many`` scores such a folder of models on new records and flags the loops
 whose fit dropped. Both exit with code 1 when a record failed or was flagged, so a
 scheduled job notices; bad arguments end with ``moli: error: ...`` and code 2.
@@ -20,14 +21,13 @@ from ..data.atomic_files import check_output_folder
 from ..data.display import console_text
 from ..data.files import read_data
 from ..errors import DataError, MoliError, OptionError
-from ..fleets.records import FleetEntry, identify_many
-from ..method.identification import IdentificationResult
+from ..fleets.records import identify_many
 from ..method.options import PRESETS, IdentifyOptions
 from ..models.storage import load_model
 from ..validation.comparison import X0_CHOICES, compare
+from .fleet_files import FleetSummary, kept_model
 from .fleet_report import SCORES, write_summary
 from .outputs import refuse_overwrite
-from .progress import Phases
 from .reading import names
 
 __all__ = ["fleet_commands", "match_files"]
@@ -39,7 +39,8 @@ VALIDATION_FILES = ("validation.csv", "validation.html")
 NAME_WIDTH = 24
 # validate-many flags a loop whose mean fit fell by more than this many points.
 DEFAULT_MAX_DROP = 5.0
-FIT_COLUMNS = ("name", "order", "fit", "vaf", "validation_N", "seconds", "warnings", "error", "source")
+# A warning raised by many records names this many of them on the console.
+NAMES_SHOWN = 5
 CHECK_COLUMNS = ("name", "fit_before", "fit_now", "drop", "vaf_now", "status", "error", "source")
 # validate-many statuses that flag a loop (a model without a new record is only listed)
 FLAGGED = ("dropped", "failed", "no model")
@@ -81,28 +82,6 @@ def _client(address: str) -> Any:
         raise OptionError(f"--scheduler: cannot reach {address}: {exc}") from None
 
 
-def _saved(entry: FleetEntry, source: Path, out_dir: Path) -> dict[str, Any]:
-    """The entry's summary row after saving its model; a model that cannot be written fails its row alone."""
-    row = entry.row()
-    if entry.result is not None:
-        try:
-            _save(entry.result, entry.fit, source, out_dir / f"{entry.name}.json")
-        except OSError as exc:
-            row["error"] = f"the model was identified but not written: {type(exc).__name__}: {exc}"
-    return row
-
-
-def _save(result: IdentificationResult, fit: float | None, source: Path, path: Path) -> None:
-    """The selected model, with where it came from and its validation scores."""
-    result.model.info.update({
-        "data": {"source": str(source), "N": result.estimation.N + result.validation.N,
-                 "validation_N": result.validation.N, "validation_source": result.validation_source},
-        "validation_vaf": result.selected.vaf.tolist(),
-        "validation_fit": fit,
-    })
-    result.model.save(path)
-
-
 def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[click.Command]:
     """The ``fit-many`` and ``validate-many`` commands.
 
@@ -135,55 +114,72 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
     @click.option("--out", "out_dir", default="models", show_default=True, type=click.Path(path_type=Path),
                   help="Folder for NAME.json per record and summary.csv / summary.html.")
     @click.option("--force", is_flag=True, help="Overwrite model files and a summary already in --out.")
+    @click.option("--resume", is_flag=True,
+                  help="Keep the models in --out made with these options from these very files; identify the rest.")
+    @click.option("--timeout", type=click.FloatRange(min=0, min_open=True), metavar="SECONDS",
+                  help="End a record that runs longer (its worker process with it) and list it as timed out.")
     def fit_many(patterns: tuple[str, ...], inputs: str, outputs: str, ts: float | None,
                  workers: int | None, scheduler: str | None, options_file: Path | None,
-                 preset: str | None, nmax: int | None, seed: int | None, out_dir: Path, force: bool) -> None:
+                 preset: str | None, nmax: int | None, seed: int | None, out_dir: Path, force: bool,
+                 resume: bool, timeout: float | None) -> None:
         """Identify every record matched by PATTERN (quote it: 'plant/*.csv').
 
         Each record is named by its file's stem and identified on its own, its last
         30 % held out for the order rule; one that fails is listed with its error
-        and the others go on.
+        and the others go on. Each model and the summary are written as each record
+        finishes, so a run that is stopped keeps what it finished (--resume goes on).
         """
         if scheduler is not None and workers is not None:
             raise OptionError("give either --workers (local processes) or --scheduler, not both")
+        if resume and force:
+            raise OptionError("give either --resume (keep the models already made) or --force (redo them all)")
+        if timeout is not None and scheduler is not None:
+            raise OptionError("--timeout ends the worker process of a record that runs too long: it needs "
+                              "local processes (--workers), not --scheduler")
         options = options_from_flags(options_file, preset, nmax=nmax, seed=seed)
         files = match_files(patterns)
         sources = _by_stem(files)
         written = [*SUMMARY_FILES, *(f"{name}.json" for name in sources)]
         check_output_folder(out_dir, "--out", written, [*files, *([options_file] if options_file else [])])
-        refuse_overwrite([out_dir / name for name in written], force)
+        if not resume:
+            refuse_overwrite([out_dir / name for name in written], force)
         read = {"inputs": names(inputs), "outputs": names(outputs), "Ts": ts}
+        summary = FleetSummary(sources, out_dir)
+        for name, source in sources.items():
+            sha256 = summary.sha256(name)  # each file's as the run starts, the one its model records
+            kept, redo = kept_model(out_dir / f"{name}.json", options, sha256, read) if resume else (None, None)
+            if kept is not None:
+                summary.rows[name] = {**kept, "source": str(source)}
+            elif redo is not None:
+                click.echo(f"  redone: {console_text(name)}: {console_text(redo)}", err=True)
+        out_dir.mkdir(parents=True, exist_ok=True)
+        summary.write()
+        to_run = {name: str(source) for name, source in sources.items() if name not in summary.rows}
         executor = None if scheduler is None else _client(scheduler)
         try:
-            fleet = identify_many(files, options, executor=executor, n_jobs=workers, read_options=read)
+            fleet = identify_many(to_run, options, executor=executor, n_jobs=workers, read_options=read,
+                                  timeout=timeout, on_entry=lambda entry: summary.add(entry, read)) \
+                if to_run else None
+        except KeyboardInterrupt:
+            summary.write()  # every record finished so far, the last one included
+            raise
         finally:
             if executor is not None:
                 executor.close()
-        out_dir.mkdir(parents=True, exist_ok=True)
-        with Phases() as phases:
-            phases("saving the models and the summary")
-            rows = [{**_saved(entry, sources[entry.name], out_dir), "source": str(sources[entry.name]),
-                     "warnings": "; ".join(entry.warnings) or None,
-                     "validation_N": None if entry.result is None else entry.result.validation.N}
-                    for entry in fleet]
-            csv_path, html_path = write_summary(
-                rows, FIT_COLUMNS, out_dir, "summary", "moli fit-many", "fit",
-                notes=[f"fit and vaf: mean over the outputs of the selected model's NRMSE fit and VAF "
-                       f"on the held-out tail, percent; validation_N: the samples of that tail, which "
-                       f"chose the order; warnings: every warning the record raised; run on "
-                       f"{fleet.backend} in {fleet.seconds:.1f} s",
-                       SCORES],
-            )
-        failed = [row for row in rows if row["error"]]
-        click.echo(f"{len(fleet)} records on {fleet.backend} in {fleet.seconds:.1f} s: "
-                   f"{len(fleet) - len(failed)} models in {out_dir}, {len(failed)} failed")
-        for row in failed:
-            click.echo(f"  failed: {console_text(row['name'])}: {console_text(row['error'])}", err=True)
-        for entry in fleet:
-            for message in entry.warnings:
-                click.echo(f"  warning: {console_text(entry.name)}: {console_text(message)}", err=True)
+        ran = "kept, none run" if fleet is None else f"on {fleet.backend} in {fleet.seconds:.1f} s"
+        csv_path, html_path = summary.write(f"{len(sources)} records {ran}")
+        counts = summary.counts()
+        click.echo(f"{len(sources)} records {ran}: {counts['identified'] + counts['kept']} models in {out_dir}"
+                   + (f" ({counts['kept']} kept from an earlier run)" if resume else "")
+                   + f", {counts['failed'] + counts['timed out']} failed"
+                   + (f" ({counts['timed out']} timed out)" if counts["timed out"] else ""))
+        for row in (summary.rows[name] for name in sources if name in summary.rows):
+            if row.get("error"):
+                click.echo(f"  {row['status']}: {console_text(row['name'])}: {console_text(row['error'])}", err=True)
+        for message, named in summary.warnings():
+            click.echo(f"  warning: {_raised_by(named)}: {console_text(message)}", err=True)
         click.echo(f"summary written to {csv_path} and {html_path}")
-        if failed:
+        if counts["failed"] or counts["timed out"]:
             raise click.exceptions.Exit(FAILED)
 
     @click.command("validate-many")
@@ -195,8 +191,9 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
                   help="Flag a loop whose mean fit fell by more than this many points.")
     @click.option("--out", "out_dir", type=click.Path(path_type=Path),
                   help="Folder for validation.csv / validation.html [default: MODELS].")
+    @click.option("--force", is_flag=True, help="Overwrite a validation.csv / validation.html already there.")
     def validate_many(models_dir: Path, patterns: tuple[str, ...], x0: str, max_drop: float,
-                      out_dir: Path | None) -> None:
+                      out_dir: Path | None, force: bool) -> None:
         """Score the models in MODELS on the new records matched by PATTERN.
 
         A record is checked by the model of the same name (MODELS/NAME.json for
@@ -210,6 +207,7 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
         records = _by_stem(match_files(patterns))
         check_output_folder(out_dir or models_dir, "--out", VALIDATION_FILES,
                             [*records.values(), *models.values()])
+        refuse_overwrite([(out_dir or models_dir) / name for name in VALIDATION_FILES], force)
         if not set(models) & set(records):
             raise DataError(f"no record matched by {', '.join(patterns)} has a model of its name in {models_dir}")
         rows = [_check(name, models.get(name), records[name], x0, max_drop) for name in records]
@@ -233,6 +231,14 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
             raise click.exceptions.Exit(FAILED)
 
     return [fit_many, validate_many]
+
+
+def _raised_by(named: list[str]) -> str:
+    """``loop1``, or ``3 records (loop0, loop1, loop2)``, the list cut after NAMES_SHOWN names."""
+    if len(named) == 1:
+        return console_text(named[0])
+    shown = ", ".join(named[:NAMES_SHOWN]) + (", ..." if len(named) > NAMES_SHOWN else "")
+    return f"{len(named)} records ({console_text(shown)})"
 
 
 def _number(value: float | None) -> str:

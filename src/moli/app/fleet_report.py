@@ -55,6 +55,16 @@ def _cell(value: Any) -> str:
     return str(value)
 
 
+def _warning_list(warnings: Sequence[tuple[str, Sequence[str]]]) -> str:
+    """The page's Warnings section: each distinct warning once, with how many records raised it and which."""
+    if not warnings:
+        return ""
+    items = "".join(f"<li><b>W{k}</b>, {len(names)} record{'s' if len(names) > 1 else ''} "
+                    f"({html.escape(', '.join(map(str, names)))}): {html.escape(message)}</li>"
+                    for k, (message, names) in enumerate(warnings, 1))
+    return f"<h2>Warnings</h2>\n<ul>{items}</ul>"
+
+
 def write_summary(
     rows: Sequence[Mapping[str, Any]],
     columns: Sequence[str],
@@ -64,6 +74,7 @@ def write_summary(
     sort_by: str,
     flagged: Sequence[bool] | None = None,
     notes: Sequence[str] = (),
+    warnings: Sequence[tuple[str, Sequence[str]]] = (),
 ) -> tuple[Path, Path]:
     """Write ``stem.csv`` and ``stem.html`` in ``folder``, rows sorted by ``sort_by``.
 
@@ -84,6 +95,10 @@ def write_summary(
         Rows to highlight.
     notes : sequence of str
         Lines shown under the heading.
+    warnings : sequence of (message, names)
+        Each distinct warning once with the records that raised it: the page lists
+        them under "Warnings", numbered, and its ``warnings`` column shows a row's
+        numbers (the CSV keeps the column's text).
 
     Returns
     -------
@@ -98,12 +113,18 @@ def write_summary(
                          for row in rows)
     marks = list(flagged) if flagged is not None else [False] * len(rows)
     order = sorted(range(len(rows)), key=lambda i: (rows[i].get(sort_by) is None, -(rows[i].get(sort_by) or 0)))
+    raised: dict[str, list[str]] = {}
+    for k, (_, names) in enumerate(warnings, 1):
+        for name in names:
+            raised.setdefault(str(name), []).append(f"W{k}")
     head = "".join(f'<th onclick="sortBy({k})">{html.escape(c)}</th>' for k, c in enumerate(columns))
     body = []
     for i in order:
+        shown = {**rows[i], "warnings": "; ".join(raised.get(str(rows[i].get("name")), [])) or None} \
+            if warnings else rows[i]
         cells = "".join(
-            f'<td class="text">{html.escape(_cell(rows[i].get(c)))}</td>'
-            if isinstance(rows[i].get(c), str) else f"<td>{html.escape(_cell(rows[i].get(c)))}</td>"
+            f'<td class="text">{html.escape(_cell(shown.get(c)))}</td>'
+            if isinstance(shown.get(c), str) else f"<td>{html.escape(_cell(shown.get(c)))}</td>"
             for c in columns
         )
         body.append(f'<tr class="flag">{cells}</tr>' if marks[i] else f"<tr>{cells}</tr>")
@@ -120,6 +141,7 @@ def write_summary(
 <tbody data-col="{list(columns).index(sort_by)}" data-dir="down">{"".join(body)}</tbody></table>
 <h2>Failures</h2>
 {f"<ul>{failed}</ul>" if failures else "<p>None.</p>"}
+{_warning_list(warnings)}
 <p class="note">moli {__version__}</p>
 </body></html>
 """

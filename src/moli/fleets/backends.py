@@ -8,7 +8,6 @@ so ``import moli`` stays light and the core needs none of them.
 from __future__ import annotations
 
 import concurrent.futures
-import concurrent.futures.process
 import contextlib
 import os
 import time
@@ -16,9 +15,10 @@ from typing import Any, Callable, Iterable, Iterator, Sequence
 
 from ..errors import MoliError, OptionError
 from .dask_workers import quiet_workers
+from .local_workers import LostWorkerError, RecordTimeoutError, worker_processes
 
 __all__ = ["usable_cpus", "run_calls", "dask_completed", "NoWorkersError", "LostWorkerError",
-           "NO_WORKER_TIMEOUT"]
+           "RecordTimeoutError", "NO_WORKER_TIMEOUT"]
 
 Done = Iterator[tuple[int, Any, "BaseException | None"]]
 # Seconds a Dask cluster may have no worker at all before the calls still pending fail:
@@ -30,10 +30,6 @@ POLL_SECONDS = 0.2
 
 class NoWorkersError(MoliError):
     """A Dask cluster had no worker for longer than the timeout: pending work cannot run."""
-
-
-class LostWorkerError(RuntimeError):
-    """A call's worker process died (killed, out of memory, crashed) on its first try and its retry."""
 
 
 def usable_cpus() -> int:
@@ -50,7 +46,7 @@ def _is_dask_client(executor: Any) -> bool:
 @contextlib.contextmanager
 def run_calls(
     function: Callable[..., Any], calls: Sequence[tuple[Any, ...]], executor: Any, n_jobs: int | None,
-    no_worker_timeout: float = NO_WORKER_TIMEOUT,
+    no_worker_timeout: float = NO_WORKER_TIMEOUT, timeout: float | None = None,
 ) -> Iterator[tuple[str, Done]]:
     """Run ``function(*args)`` for every ``args`` of ``calls``.
 
@@ -61,31 +57,34 @@ def run_calls(
     calls : sequence of tuples
         The arguments of each call.
     executor : None, str, dask.distributed.Client or concurrent.futures.Executor
-        None: ``n_jobs`` local processes (joblib's loky when installed, else
-        ``concurrent.futures``; this process when ``n_jobs`` is 1); a string: that
-        joblib backend (``"ray"`` registers Ray's first); a Client or an Executor:
-        its workers.
+        None: ``n_jobs`` local processes (:mod:`moli.fleets.local_workers`; this
+        process when ``n_jobs`` is 1 and no ``timeout`` is set); a string: that joblib
+        backend (``"ray"`` registers Ray's first); a Client or an Executor: its workers.
     n_jobs : int or None
         Local processes or joblib workers; default :func:`usable_cpus`.
     no_worker_timeout : float
         Seconds a Dask cluster may have no worker before its pending calls fail with
         :class:`NoWorkersError`.
+    timeout : float, optional
+        Seconds one call may run on local processes; a call over it is ended with its
+        worker process and fails with :class:`RecordTimeoutError`.
 
     Yields
     ------
     description : str
-        Where the calls run, e.g. ``"loky, 2 processes"``.
+        Where the calls run, e.g. ``"2 processes"``.
     done : iterator of (int, object, BaseException or None)
         Per call, in completion order: its position, its value, and the error that
-        kept the backend from returning it (a lost worker, say), or None. On local
-        processes a call whose worker died is retried once in a process of its own,
+        kept the backend from returning it (a lost worker, a timeout), or None. On
+        local processes a call whose worker died is retried once, on another worker,
         so a call that kills its worker fails alone (:class:`LostWorkerError`).
 
     Raises
     ------
     OptionError
         An executor of another kind, an unknown joblib backend, a bad ``n_jobs``,
-        or ``n_jobs`` given with a Client or an Executor (before any call runs).
+        ``n_jobs`` given with a Client or an Executor, or ``timeout`` with anything
+        but local processes (before any call runs).
     """
     if n_jobs is not None and (isinstance(n_jobs, bool) or not isinstance(n_jobs, int) or n_jobs < 1):
         raise OptionError(f"n_jobs must be a positive integer or None, got {n_jobs!r}")
@@ -95,6 +94,14 @@ def run_calls(
     if executor is not None and not brings_workers and not isinstance(executor, str):
         raise OptionError("executor must be None, a dask.distributed.Client, a concurrent.futures.Executor "
                           f"or the name of a joblib backend, got {type(executor).__name__}")
+    if timeout is not None:
+        if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not timeout > 0:
+            raise OptionError(f"timeout must be a positive number of seconds, got {timeout!r}")
+        if executor is not None:
+            # a Dask worker's thread or a pool's process cannot be ended for one call alone
+            raise OptionError("timeout ends the worker process of a call that runs too long: it needs "
+                              "moli's local processes (executor=None), not a Client, an Executor or a "
+                              "joblib backend")
     workers = max(1, min(n_jobs or usable_cpus(), len(calls)))
     if _is_dask_client(executor):
         address = getattr(getattr(executor, "scheduler", None), "address", "?")
@@ -113,11 +120,11 @@ def run_calls(
     elif isinstance(executor, str):
         with _joblib(executor, workers, function, calls) as done:
             yield f"joblib {executor}, {workers} workers", done
-    elif workers == 1:
+    elif workers == 1 and timeout is None:
         yield "this process", ((i, function(*args), None) for i, args in enumerate(calls))
     else:
-        with _local_processes(workers, function, calls) as described:
-            yield described
+        with worker_processes(function, calls, workers, timeout) as done:
+            yield f"{workers} process{'es' if workers > 1 else ''}", done
 
 
 @contextlib.contextmanager
@@ -208,69 +215,3 @@ def _has_workers(client: Any) -> bool:
     except TypeError:  # a Dask before the n_workers argument lists them all
         info = client.scheduler_info()
     return bool(info["workers"])
-
-
-def _process_pool(workers: int, reusable: bool) -> tuple[concurrent.futures.Executor, str, bool]:
-    """A pool, where it runs, and whether it is ours to shut down: loky's processes when
-    joblib is installed (the reusable pool keeps its workers from one fleet to the
-    next, so it outlives this one), else the standard library's."""
-    try:
-        import joblib  # noqa: F401  (loky comes with it; the extra may be absent)
-        from joblib.externals.loky import ProcessPoolExecutor, get_reusable_executor
-    except ImportError:
-        return concurrent.futures.ProcessPoolExecutor(workers), f"{workers} processes", True
-    if reusable:
-        return get_reusable_executor(max_workers=workers), f"loky, {workers} processes", False
-    return ProcessPoolExecutor(workers), f"loky, {workers} processes", True
-
-
-def _in_own_process(function: Callable[..., Any], args: tuple[Any, ...]) -> Any:
-    pool, _, _ = _process_pool(1, reusable=False)
-    with pool:
-        return pool.submit(function, *args).result()
-
-
-@contextlib.contextmanager
-def _local_processes(workers: int, function: Callable[..., Any],
-                     calls: Sequence[tuple[Any, ...]]) -> Iterator[tuple[str, Done]]:
-    """``workers`` processes; calls lost with a dead worker are retried once, each alone.
-
-    A dead worker breaks the whole pool, so the calls it took down with it (its own
-    and those still queued) are run again, each in a fresh process of its own: only
-    a call that kills its worker again fails, with :class:`LostWorkerError`.
-    """
-    pool, description, owned = _process_pool(workers, reusable=True)
-    lost: dict[int, BaseException] = {}
-
-    def first_try() -> Done:
-        with _futures([pool.submit(function, *args) for args in calls], concurrent.futures.as_completed) as done:
-            for index, value, error in done:
-                if error is None:
-                    yield index, value, None
-                else:
-                    lost[index] = error
-
-    def retried() -> Done:
-        with concurrent.futures.ThreadPoolExecutor(workers) as threads:
-            futures = {threads.submit(_in_own_process, function, calls[i]): i for i in sorted(lost)}
-            for future in concurrent.futures.as_completed(futures):
-                index = futures[future]
-                try:
-                    yield index, future.result(), None
-                except concurrent.futures.process.BrokenProcessPool as exc:
-                    yield index, None, LostWorkerError(
-                        f"its worker process died twice (killed, out of memory or crashed): "
-                        f"{type(exc).__name__}: {exc}; first: {type(lost[index]).__name__}: {lost[index]}")
-                except Exception as exc:        # the call's own error (unpicklable result, ...): as it is
-                    yield index, None, exc
-
-    def done() -> Done:
-        yield from first_try()
-        if lost:
-            yield from retried()
-
-    try:
-        yield description, done()
-    finally:
-        if owned:
-            pool.shutdown(wait=True, cancel_futures=True)

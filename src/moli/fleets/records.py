@@ -31,7 +31,8 @@ from ..method.options import IdentifyOptions
 from .warning_capture import thread_warnings
 from ..models.statespace import StateSpaceModel
 from ..validation.comparison import compare
-from .backends import NO_WORKER_TIMEOUT, run_calls
+from .backends import NO_WORKER_TIMEOUT, RecordTimeoutError, run_calls
+from .record_paths import absolute_paths, as_given
 
 __all__ = ["FleetEntry", "FleetResult", "identify_many"]
 
@@ -63,6 +64,9 @@ class FleetEntry:
     fit : float or None
         Mean over the outputs of the selected model's NRMSE fit on the validation
         record, percent (simulation from the initial state of ``options.x0``).
+    timed_out : bool
+        True when the record ran longer than ``identify_many``'s ``timeout`` and was
+        ended (``error`` then says so).
     """
 
     name: str
@@ -71,6 +75,7 @@ class FleetEntry:
     seconds: float
     warnings: tuple[str, ...] = ()
     fit: float | None = None
+    timed_out: bool = False
 
     @property
     def ok(self) -> bool:
@@ -97,7 +102,7 @@ class FleetResult:
     ----------
     entries : list of FleetEntry
     backend : str
-        Where it ran, e.g. ``"loky, 2 processes"`` or ``"dask, tcp://10.0.0.5:8786"``.
+        Where it ran, e.g. ``"2 processes"`` or ``"dask, tcp://10.0.0.5:8786"``.
     seconds : float
         Wall time of the whole fleet.
 
@@ -169,6 +174,8 @@ def identify_many(
     read_options: Mapping[str, Any] | None = None,
     progress: bool | Callable[[FleetEntry], None] = True,
     no_worker_timeout: float = NO_WORKER_TIMEOUT,
+    timeout: float | None = None,
+    on_entry: Callable[[FleetEntry], None] | None = None,
 ) -> FleetResult:
     """Identify every record of a fleet, in parallel; one failure stops nothing.
 
@@ -183,14 +190,15 @@ def identify_many(
         The options of every identification (``identify``'s default when None).
         A record without validation data holds out its last 30 %, as ``identify`` does.
     executor : optional
-        Where to run: None for local processes (joblib's loky when installed, else
-        ``concurrent.futures``); a ``dask.distributed.Client`` (any cluster Dask
+        Where to run: None for local processes (started and watched by moli: they end
+        when this process ends, however it ends); a ``dask.distributed.Client`` (any cluster Dask
         reaches: a ``LocalCluster``, Kubernetes, SLURM...); a
         ``concurrent.futures.Executor``; or the name of a joblib backend such as
         ``"loky"``, ``"threading"`` or ``"ray"`` (needs ``ray``).
     n_jobs : int, optional
         Local worker processes (or joblib workers); default: the usable CPUs. 1 runs
-        in this process. Not used with a Client or an Executor, which bring their own.
+        in this process (in one worker process when ``timeout`` is set). Not used
+        with a Client or an Executor, which bring their own.
     read_options : mapping, optional
         Keywords of :func:`moli.read_data` for the file items (``inputs``,
         ``outputs``, ``Ts``).
@@ -200,6 +208,14 @@ def identify_many(
     no_worker_timeout : float, default 60
         Seconds a Dask cluster may have no worker at all; then the records still
         pending fail with that reason (Dask itself would wait forever).
+    timeout : float, optional
+        Seconds one record may take on its worker (reading included); a record over
+        it is ended with its worker process and listed as failed, ``timed_out``
+        True. Needs local processes (``executor=None``).
+    on_entry : callable, optional
+        Called in this process with each :class:`FleetEntry` as it completes, before
+        the next is taken (to save each result as it comes, say); an exception it
+        raises ends the run, the workers with it.
 
     Returns
     -------
@@ -212,8 +228,8 @@ def identify_many(
         ``datasets`` or one of its items is not of a kind listed above, or two
         items share a name (before any work).
     OptionError
-        Invalid ``options``, ``executor``, ``n_jobs``, ``read_options`` or
-        ``progress`` (before any work).
+        Invalid ``options``, ``executor``, ``n_jobs``, ``read_options``,
+        ``progress``, ``timeout`` or ``on_entry`` (before any work).
 
     Examples
     --------
@@ -234,30 +250,34 @@ def identify_many(
     reading = _read_options(read_options)
     if not (isinstance(progress, bool) or callable(progress)):
         raise OptionError(f"progress must be True, False or a callable, got {progress!r}")
+    if on_entry is not None and not callable(on_entry):
+        raise OptionError(f"on_entry must be a callable or None, got {on_entry!r}")
+    given = {name: item for name, item in items}
     if executor is None or isinstance(executor, str):
-        # local workers are reused from call to call with the folder they started in
-        items = [(name, _from_here(item)) for name, item in items]
+        # a joblib backend's workers live on from call to call, in the folder they started in
+        items = [(name, absolute_paths(item)) for name, item in items]
     calls = [(name, item, options or IdentifyOptions(), reading) for name, item in items]
     entries: dict[int, FleetEntry] = {}
     start = time.perf_counter()
     if isinstance(no_worker_timeout, bool) or not isinstance(no_worker_timeout, (int, float)) \
             or not no_worker_timeout > 0:
         raise OptionError(f"no_worker_timeout must be a positive number of seconds, got {no_worker_timeout!r}")
-    with run_calls(_identify_one, calls, executor, n_jobs, no_worker_timeout) as (backend, done), \
+    with run_calls(_identify_one, calls, executor, n_jobs, no_worker_timeout, timeout) as (backend, done), \
             _reporting(progress, len(calls)) as tell:
         for index, entry, lost in done:
-            if lost is not None:  # the backend could not return it (a worker died, say)
-                entry = FleetEntry(items[index][0], None, f"{type(lost).__name__}: {lost}", 0.0)
+            name, item = items[index]
+            if lost is not None:  # the backend could not return it (a worker died, it ran too long)
+                timed_out = isinstance(lost, RecordTimeoutError)
+                entry = FleetEntry(name, None, f"{type(lost).__name__}: {lost}",
+                                   float(timeout or 0.0) if timed_out else 0.0, timed_out=timed_out)
+            entry.warnings = tuple(dict.fromkeys(as_given(message, item, given[name])
+                                                 for message in entry.warnings))
+            entry.error = None if entry.error is None else as_given(entry.error, item, given[name])
             entries[index] = entry
             tell(entry)
+            if on_entry is not None:
+                on_entry(entry)
     return FleetResult([entries[i] for i in range(len(calls))], backend, time.perf_counter() - start)
-
-
-def _from_here(item: Item) -> Item:
-    """``item`` with each file path made absolute against this process's current folder."""
-    if isinstance(item, tuple):
-        return tuple(_from_here(part) for part in item)      # type: ignore[return-value]
-    return item if isinstance(item, IOData) else os.path.abspath(item)
 
 
 def _name_of(item: Item, position: int) -> str:
