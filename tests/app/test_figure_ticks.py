@@ -125,10 +125,12 @@ def test_empty_labels_are_not_placed_and_named_ones_are():
 
 
 @pytest.mark.parametrize("value, mathtext, plain", [
-    (1e-2, r"$\mathdefault{10^{-2}}$", "10⁻²"),
-    (1e3, r"$\mathdefault{10^{3}}$", "10³"),
-    (3.0, r"$\mathdefault{3\times10^{0}}$", "3×10⁰"),
+    (1e-2, r"$\mathdefault{10^{-2}}$", "0.01"),
+    (1e3, r"$\mathdefault{10^{3}}$", "1000"),
+    (3.0, r"$\mathdefault{3\times10^{0}}$", "3"),
+    (40.0, r"$\mathdefault{4\times10^{1}}$", "40"),
     (2e-5, r"$\mathdefault{2\times10^{-5}}$", "2×10⁻⁵"),
+    (1e5, r"$\mathdefault{10^{5}}$", "10⁵"),
 ])
 def test_plain_log_labels_read_as_matplotlib_mathtext(value, mathtext, plain):
     fig = figures.new_figure(4, 3)

@@ -41,6 +41,9 @@ MATHTEXT_LABEL = re.compile(r"\$\\mathdefault\{(.*)\}\$")
 SUPERSCRIPT = re.compile(r"\^\{([-0-9]+)\}")
 PLAIN_REST = re.compile(r"[-0-9.]*")
 SUPERSCRIPT_CHARACTERS = str.maketrans("0123456789-", "⁰¹²³⁴⁵⁶⁷⁸⁹⁻")
+# Log-axis labels in this range are written as plain numbers (at most four characters from
+# 0.001 up to 9000); beyond it as powers of ten, shorter there than the digits.
+PLAIN_LOW, PLAIN_HIGH = 1e-3, 1e4
 
 # A tick this close to the view's end, as a share of the view's width on the axis's scale,
 # is kept: matplotlib draws ticks that round-off puts just outside the view.
@@ -153,8 +156,12 @@ def unplaced_empty_labels(fig: Figure) -> None:
 
 
 class PlainLogFormatter(Formatter):
-    """The labels of ``formatter`` (a log axis's), mathtext turned into plain text:
-    ``10⁻²``, ``2×10⁰``, ``−0.5``. Which ticks get a label is the formatter's choice."""
+    """The labels of ``formatter`` (a log axis's), mathtext turned into plain text: a value from
+    :data:`PLAIN_LOW` up to :data:`PLAIN_HIGH` as a plain number (``0.01``, ``6``, ``40``), one
+    beyond as a power (``10⁻⁵``, ``2×10⁻⁵``). Which ticks get a label is the formatter's choice.
+
+    ``6×10⁰ 4×10⁰ 3×10⁰`` on an axis spanning less than a decade read as clutter where ``6 4 3``
+    read at a glance."""
 
     def __init__(self, formatter: Formatter) -> None:
         self.formatter = formatter
@@ -172,6 +179,8 @@ class PlainLogFormatter(Formatter):
         match = MATHTEXT_LABEL.fullmatch(label)
         if match is None or not PLAIN_REST.fullmatch(SUPERSCRIPT.sub("", match.group(1)).replace("\\times", "")):
             return label
+        if PLAIN_LOW <= abs(x) < PLAIN_HIGH:
+            return f"{x:.4g}".replace("-", "−")
         body = SUPERSCRIPT.sub(lambda power: power.group(1).translate(SUPERSCRIPT_CHARACTERS), match.group(1))
         return body.replace("\\times", "×").replace("-", "−")
 
