@@ -403,6 +403,7 @@ def settling_samples(model: StateSpaceModel, record_samples: int | None = None, 
     Returns
     -------
     int
+        ``cap`` for an unstable model: its plot shows it diverge.
 
     Examples
     --------
@@ -411,6 +412,8 @@ def settling_samples(model: StateSpaceModel, record_samples: int | None = None, 
     >>> settling_samples(StateSpaceModel(np.diag([0.999, 0.9]), [[1.0], [1.0]], [[1.0, 1.0]]), 500)
     48
     """
+    if not model.is_stable():
+        return cap
     supported = [s.time_constant for s in pole_support(model, record_samples) if s.supported]
     slowest = max(supported, default=0.0)
     return int(min(cap, max(20, np.ceil(5.0 * slowest))))

@@ -82,9 +82,11 @@ def path_table(result: IdentificationResult) -> str:
                  f"{st.eta[1]:.3f}", "yes" if st.stable else "no", f"{st.seconds:.2f}"]
         mark = ' class="selected"' if i == result.selected_index else ""
         rows.append(f"<tr{mark}>" + "".join(f"<td>{c}</td>" for c in cells) + "</tr>")
-    legend = ", ".join(f"y{i + 1} = {html.escape(report_name(name))}" for i, name in enumerate(names))
+    # the column heads' numbers named, where the names say more than the numbers ("y1 = y1" says nothing)
+    legend = ", ".join(f"y{i + 1} = {html.escape(report_name(name))}" for i, name in enumerate(names)
+                       if name != f"y{i + 1}")
     return (f"<div class='wide'><table><tr>{head}</tr>{''.join(rows)}</table></div>"
-            f"<p class='note'>Outputs: {legend}.</p>")
+            + (f"<p class='note'>Outputs: {legend}.</p>" if legend else ""))
 
 
 def _model_facts(result: IdentificationResult) -> str:
@@ -102,7 +104,8 @@ def _model_facts(result: IdentificationResult) -> str:
         "selected by": f"{result.selection}, on {result.validation.N} validation samples "
                        f"({result.validation_source})",
     }
-    unsupported = [s for s in pole_support(model, result.estimation.N) if not s.supported]
+    # an unstable pole is said above; a stable one the record cannot resolve is named here
+    unsupported = [s for s in pole_support(model, result.estimation.N) if not s.supported and abs(s.pole) < 1]
     if unsupported:
         facts["poles the record cannot resolve"] = "; ".join(
             f"{_pole(s.pole)} ({s.reason(result.estimation.N, figures.BAND_CONFIDENCE)})" for s in unsupported)

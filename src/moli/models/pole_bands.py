@@ -36,7 +36,7 @@ class PoleSupport:
     time_constant : float
         ``-1 / ln|pole|`` in samples; inf at or beyond the unit circle.
     reaches_unit_circle : bool
-        The interval's upper end is at least 1.
+        The pole or its interval's upper end is on or beyond the unit circle.
     longer_than_record : bool
         The time constant exceeds the estimation record's samples (when given).
     """
@@ -112,7 +112,7 @@ def pole_support(model: Any, record_samples: int | None = None, confidence: floa
     radius = np.abs(poles)
     with np.errstate(divide="ignore"):
         constants = np.where(radius >= 1.0, np.inf, -1.0 / np.log(np.maximum(radius, 1e-300)))
-    found = [PoleSupport(complex(z), float(top), float(tau), bool(top >= 1.0),
+    found = [PoleSupport(complex(z), float(top), float(tau), bool(top >= 1.0 or abs(z) >= 1.0),
                          record_samples is not None and bool(tau > record_samples))
              for z, top, tau in zip(poles, upper, constants)]
     return sorted(found, key=lambda s: -s.time_constant)
