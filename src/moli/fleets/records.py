@@ -17,7 +17,7 @@ import inspect
 import os
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Iterator, Mapping, Sequence, Union
 
@@ -26,9 +26,11 @@ import numpy as np
 from ..data.files import read_data
 from ..data.iodata import IOData
 from ..errors import DataError, OptionError
+from ..method.continuous import ContinuousResult
 from ..method.identification import IdentificationResult, identify
 from ..method.options import IdentifyOptions
 from ..method.warning_capture import thread_warnings
+from ..models.continuous import ContinuousModel
 from ..models.statespace import StateSpaceModel
 from ..validation.comparison import compare
 from .backends import NO_WORKER_TIMEOUT, run_calls
@@ -52,8 +54,8 @@ class FleetEntry:
     ----------
     name : str
         The record's name (its key, its file's stem, or ``record-<position>``).
-    result : IdentificationResult or None
-        The identification; None when it failed.
+    result : IdentificationResult or ContinuousResult or None
+        The identification (a ContinuousResult with ``time="continuous"``); None when it failed.
     error : str or None
         Why it failed (exception type and message); None when it succeeded.
     seconds : float
@@ -66,7 +68,7 @@ class FleetEntry:
     """
 
     name: str
-    result: IdentificationResult | None
+    result: IdentificationResult | ContinuousResult | None
     error: str | None
     seconds: float
     warnings: tuple[str, ...] = ()
@@ -139,7 +141,7 @@ class FleetResult:
         """The entries whose identification failed."""
         return [entry for entry in self.entries if not entry.ok]
 
-    def models(self) -> dict[str, StateSpaceModel]:
+    def models(self) -> dict[str, StateSpaceModel | ContinuousModel]:
         """The selected model of every identified record, by name."""
         return {e.name: e.result.model for e in self.entries if e.result is not None}
 
@@ -359,6 +361,10 @@ def _identify_one(name: str, item: Item, options: IdentifyOptions,
             else:
                 estimation, validation = _load(item, read_options), None
             result = identify(estimation, validation, options)
+            if result.model.is_continuous:
+                # what the sampled pipeline records on its model: the options, and the hold to simulate with
+                result.model = replace(result.model, input_hold=options.input_hold,
+                                       info={**result.model.info, "options": options.to_dict()})
             fit = float(np.mean(compare(result.model, result.validation, options.x0).fit))
         except Exception as exc:  # a bad record is reported under its name; the fleet goes on
             result, error = None, f"{type(exc).__name__}: {exc}"

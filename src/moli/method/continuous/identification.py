@@ -17,6 +17,7 @@ from ..order_rules import select_by_shares, select_order
 from .covariance import covariance_factor
 from .estimation import stamped_record
 from .filters import continuous_grid
+from .reach import check_continuous_reach
 from .search import ContinuousSearch, ContinuousStep, greedy_path
 
 __all__ = ["ContinuousResult", "identify_continuous"]
@@ -140,6 +141,7 @@ def identify_continuous(estimation: IOData, validation: IOData, source: str, opt
     ContinuousResult
     """
     _check(opts)
+    check_continuous_reach(opts.nmax, opts.order, estimation)
     start = time.perf_counter()
     if opts.center:
         estimation = estimation.remove_means()
