@@ -279,3 +279,21 @@ def test_a_short_validation_record_scores_every_order_on_the_same_samples():
     # so the warm-up follows the path's end and the paired rule compares equal samples
     result = moli.identify(*stamped(y, u, t, at=0.85), time="continuous", nmax=10)
     assert len({st.errors.size for st in result.path}) == 1
+
+
+def test_identify_records_the_options_and_hold_on_a_continuous_model():
+    # a direct call, not only the command line, leaves the model what made it: a model fitted
+    # with linear inputs is then simulated with linear inputs by compare
+    data = moli.example_data(N=400, seed=3)
+    result = moli.identify(data, time="continuous", nmax=4, input_hold="foh")
+    assert result.model.input_hold == "foh"
+    assert result.model.info["options"]["time"] == "continuous"
+    assert result.model.info["options"]["input_hold"] == "foh"
+    np.testing.assert_allclose(result.model.info["validation_vaf"], result.selected.vaf)
+
+
+def test_a_continuous_model_of_noise_says_it_fits_no_output():
+    rng = np.random.default_rng(1)
+    noise = moli.IOData(rng.standard_normal((120, 1)), rng.standard_normal((120, 1)), 0.1)
+    with pytest.warns(moli.NoFitWarning, match="output y1 no better than its mean"):
+        moli.identify(noise, time="continuous", nmax=3)

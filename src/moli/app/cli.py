@@ -14,7 +14,6 @@ from pathlib import Path
 from typing import Any
 
 import click
-import numpy as np
 from tqdm import tqdm
 
 from .._version import __version__
@@ -28,7 +27,6 @@ from ..errors import DataError, MoliError, OptionError
 from ..method.identification import IdentificationResult
 from ..method.options import PRESETS, IdentifyOptions
 from ..method.search.greedy_path import PathStep, StructureSearch, exhaustive
-from ..models.statespace import StateSpaceModel
 from ..models.storage import load_model
 from ..systems.plant import example_data
 from ..validation.comparison import X0_CHOICES, compare
@@ -40,6 +38,7 @@ from .outputs import REPORT_FILE, refuse_overwrite, run_folder
 from .progress import READING_SHOWN_AFTER, Phases
 from .reading import RunWarnings, names, read_records, reading_options
 from .continuous_fit import fit_continuous
+from .describe import describe
 from .search_run import held_out_search
 from .report import write_report
 
@@ -85,7 +84,9 @@ def options_from_flags(options_file: Path | None, preset: str | None, **flags: A
 
     ``--options FILE`` (a JSON options dict, e.g. ``model.json``'s ``info.options``)
     or ``--preset`` gives the base; every flag given on the command line (not None)
-    then replaces its field.
+    then replaces its field. A saved model's options keep the model's time domain: a
+    continuous model's run in continuous time (``time`` is set from the file's own
+    ``time``), and a file whose options say the other domain is refused.
     """
     given = {name: value for name, value in flags.items() if value is not None}
     if options_file is None:
@@ -99,8 +100,21 @@ def options_from_flags(options_file: Path | None, preset: str | None, **flags: A
     except (ValueError, RecursionError) as exc:  # bad JSON or UTF-8, too deep, integers too long
         raise OptionError(f"--options: {options_file} is not a JSON file: {exc}") from None
     if isinstance(content, dict) and content.get("format") == "moli-model":
-        content = content.get("info", {}).get("options", {})  # a saved model: the options that made it
+        content = _model_options(content, options_file)
     return IdentifyOptions.from_dict(content).replace(**given)
+
+
+def _model_options(model: dict[str, Any], options_file: Path) -> dict[str, Any]:
+    """A saved model's options (the ones that made it), in the model's own time domain."""
+    info = model.get("info")
+    options = info.get("options", {}) if isinstance(info, dict) else {}
+    if not isinstance(options, dict):
+        raise OptionError(f"--options: {options_file} holds a model whose info.options is not a JSON object")
+    domain = "continuous" if model.get("time") == "continuous" else "discrete"
+    if options.get("time", domain) != domain:
+        raise OptionError(f"--options: {options_file} holds a {domain}-time model whose options say "
+                          f"time={options['time']!r}; the file is inconsistent: name the options in a file of their own")
+    return {**options, "time": domain}
 
 
 def _identify(data: IOData, fraction: float, options: IdentifyOptions, noted: RunWarnings,
@@ -291,8 +305,8 @@ def fit(data_files: tuple[Path, ...], inputs: str | None, outputs: str | None, d
     if options.time == "continuous":
         if all_lists:
             raise OptionError("--all-lists is for the discrete search: leave it out with --continuous")
-        fit_continuous(data, fraction, options, noted, model_path, report_dir,
-                       data_files[0] if len(data_files) == 1 else None)
+        fit_continuous(data, fraction, options, noted, model_path=model_path, report_dir=report_dir,
+                       data_files=data_files, facts={"source": source, "outliers_removed": removed})
         return
     result = _identify(data, fraction, options, noted, str(data_files[-1]) if len(data_files) > 1 else None)
     result.model.info["data"].update(source=source, file_sha256=[file_sha256(f) for f in data_files]
@@ -344,51 +358,6 @@ def validate(model_file: Path, data_files: tuple[Path, ...], inputs: str | None,
 def info(model_file: Path) -> None:
     """Print structure, poles, stability, Ts and names of MODEL."""
     click.echo(describe(load_model(model_file)))
-
-
-def describe(model: StateSpaceModel) -> str:
-    """A readable description of a model: structure, poles, stability, names.
-
-    Parameters
-    ----------
-    model : StateSpaceModel
-
-    Returns
-    -------
-    str
-
-    Examples
-    --------
-    >>> print(describe(StateSpaceModel([[0.5]], [[1.0]], [[1.0]])).splitlines()[0])
-    state-space model: n = 1, 1 outputs, 1 inputs, Ts = 1
-    """
-    z = model.poles()
-    lines = [
-        f"state-space model: n = {model.n}, {model.p} outputs, {model.m} inputs, Ts = {model.Ts:g}",
-        f"outputs: {', '.join(map(console_text, model.output_names))}",
-        f"inputs: {', '.join(map(console_text, model.input_names))}",
-    ]
-    if any(model.input_delays):
-        lines.append(f"input delays (samples): {list(model.input_delays)}")
-    if model.indices is not None:
-        lines.append(f"observability indices: {list(model.indices)}")
-    if model.alpha is not None:
-        lines.append(f"filter polynomial alpha: {np.array2string(model.alpha, precision=4)}")
-    if model.divisors is not None:
-        lines += [f"filter of output {j + 1}: {np.array2string(d, precision=4)}"
-                  for j, d in enumerate(model.divisors)]
-    if model.K is not None:
-        std = ", ".join(f"{v:.4g}" for v in np.sqrt(np.diag(model.noise_cov)))
-        lines.append(f"noise model: Kalman gain K ({model.n} x {model.p}), innovation std {std}")
-    lines.append(f"stable: {'yes' if model.is_stable() else 'NO'} "
-                 f"(largest pole modulus {np.max(np.abs(z), initial=0.0):.4f})")
-    lines.append("poles (modulus):")
-    lines += [f"  {p.real:+.4f} {p.imag:+.4f}j  ({abs(p):.4f})" for p in z[np.argsort(-np.abs(z))]]
-    data = model.info.get("data", {})
-    if "sha256" in data:
-        lines.append(f"estimated on {console_text(data.get('source', '?'))}: {data['N']} samples, "
-                     f"sha256 {data['sha256'][:16]}...")
-    return "\n".join(lines)
 
 
 for _command in fleet_commands(options_from_flags):  # fit-many, validate-many

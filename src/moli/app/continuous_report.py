@@ -1,9 +1,11 @@
 """The HTML report of a continuous-time identification (``moli fit --continuous``).
 
-The poles in the plant's own units (time constants, natural frequencies, damping),
-the static gains with their intervals, the greedy path, the validation record beside
-the model's simulation on its own time stamps, and the gain against frequency with
-its band.
+The sections of the sampled report where they make sense: provenance, the run's
+warnings, the poles in the plant's own units (time constants, natural frequencies,
+damping), the static gains with their intervals, the greedy path, the validation
+scores and record beside the model's simulation on its own time stamps, the step
+responses and the gain against frequency with their bands, the residual analysis and
+the options.
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ from __future__ import annotations
 import html
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 from matplotlib.figure import Figure
@@ -21,16 +24,23 @@ from .._version import __version__
 from ..data.atomic_files import write_atomic
 from ..data.display import figure_label, report_name
 from ..data.files import file_sha256
+from ..data.iodata import longest_segment
 from ..method.continuous.estimation import simulate_stamped, stamped_record, warm_up_rows
 from ..method.continuous.identification import ContinuousResult
 from ..method.continuous.search import WARM_UP
 from ..models.bands import magnitude_bands
-from .report import STYLE, embedded_image, facts_table
+from ..validation.comparison import compare
+from ..validation.residuals import SAMPLES_PER_LAG, residual_analysis
+from .report import STYLE, embedded_image, facts_table, residual_section, warnings_section
 
 __all__ = ["write_continuous_report"]
 
 # Frequencies of the gain figure: this factor below the slowest pole and above the fastest.
 FREQUENCY_MARGIN = 30.0
+# The step responses run to this many of the slowest pole's time constants (e^-6: settled
+# to 0.25 % of the step), drawn at this many points.
+SETTLING_TIME_CONSTANTS = 6.0
+STEP_POINTS = 200
 
 
 def _path_table(result: ContinuousResult) -> str:
@@ -81,6 +91,43 @@ def _validation_figure(result: ContinuousResult) -> Figure:
     return fig
 
 
+def _step_figure(result: ContinuousResult) -> Figure:
+    """Unit-step responses of each channel, with their pointwise 95 % bands when the model has a covariance."""
+    model = result.model
+    decay = np.abs(model.poles().real)
+    span = result.estimation.time()[-1] - result.estimation.time()[0]
+    # a stable model's slowest time constant sets the horizon; an integrator or an unstable model the record's span
+    horizon = SETTLING_TIME_CONSTANTS / decay.min() if model.is_stable() and decay.size and decay.min() > 0 else span
+    t = np.linspace(0.0, horizon, STEP_POINTS)
+    bands = None if model.cov_factor is None else model.step_bands(t, figures.BAND_CONFIDENCE)
+    fig, axes = figures.channel_grid(model, "to", "time")
+    for j in range(model.m):
+        step = np.zeros((t.size, model.m))
+        step[:, j] = 1.0
+        with np.errstate(all="ignore"):
+            response = model.simulate_at(step, t)
+        for i in range(model.p):
+            if bands is not None:
+                axes[i, j].fill_between(t, bands[0][:, i, j], bands[1][:, i, j], color="C0", alpha=0.2, lw=0)
+            axes[i, j].plot(t, response[:, i], color="C0", lw=1.2)
+            axes[i, j].axhline(0.0, color="0.8", lw=0.8)
+            axes[i, j].grid(alpha=0.3)
+    return fig
+
+
+def _scores_table(result: ContinuousResult) -> str:
+    """Each output's validation VAF as the search scored it, and as ``moli validate`` scores the model."""
+    simulated = compare(result.model, result.validation, "zero")
+    head = "".join(f"<th>{h}</th>" for h in ("output", "VAF % (search)", "VAF % (from rest)", "fit % (from rest)"))
+    rows = "".join(f"<tr><th scope='row'>{html.escape(report_name(name))}</th><td>{result.selected.vaf[i]:.2f}</td>"
+                   f"<td>{simulated.vaf[i]:.2f}</td><td>{simulated.fit[i]:.2f}</td></tr>"
+                   for i, name in enumerate(result.model.output_names))
+    return (f"<div class='wide'><table><tr>{head}</tr>{rows}</table></div><p class='note'>Search: the initial "
+            f"state of each segment fitted on its first {WARM_UP:.0%}, the VAF counted on the rest (the order "
+            "rule's score). From rest: the simulation from the zero state over the whole validation record, "
+            "as moli validate and validate-many score the model.</p>")
+
+
 def _gain_figure(result: ContinuousResult) -> Figure:
     model = result.model
     speeds = np.abs(model.poles())
@@ -97,7 +144,7 @@ def _gain_figure(result: ContinuousResult) -> Figure:
 
 
 def write_continuous_report(result: ContinuousResult, directory: str | Path,
-                            data_file: str | Path | None = None) -> Path:
+                            data_file: str | Path | None = None, *, warnings: Sequence[str] = ()) -> Path:
     """Write ``report.html`` and its figures (PNG) for a continuous-time identification.
 
     Parameters
@@ -107,6 +154,8 @@ def write_continuous_report(result: ContinuousResult, directory: str | Path,
         Created if missing.
     data_file : str or Path, optional
         The file the record was read from: the report gives its name and SHA-256.
+    warnings : sequence of str, optional
+        Every warning the run raised, listed in the Warnings section.
 
     Returns
     -------
@@ -116,25 +165,39 @@ def write_continuous_report(result: ContinuousResult, directory: str | Path,
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
     step, model = result.selected, result.model
-    provenance = {"input": str(data_file) if data_file is not None else "not recorded"}
+    recorded = model.info.get("data", {})
+    provenance = {"input": str(data_file) if data_file is not None else recorded.get("source", "not recorded")}
     if data_file is not None:
         provenance["SHA-256 of the input file"] = file_sha256(data_file)
+    if "sha256" in recorded:
+        provenance["SHA-256 of the estimation samples"] = recorded["sha256"]
     provenance |= {"moli version": __version__,
                    "written (UTC)": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M:%S")}
     facts = {"indices": str(list(step.indices)), "order n": str(step.order),
              "filter (wc, zeta)": f"{step.eta[0]:.4g} rad per time unit, {step.eta[1]:.3f}",
              "input between samples": {"zoh": "held", "foh": "linear"}[result.options.input_hold],
+             "stable": "yes" if model.is_stable() else "NO (a pole with a non-negative real part)",
              "selected by": f"{result.selection} ({result.validation_source})"}
+    bands = ", shaded: pointwise 95 % confidence band of the estimate." if model.cov_factor is not None else "."
     drawn = {
         "validation": (_validation_figure(result), "Validation record (grey) and the model's simulation "
                        "on the same time stamps. Each segment's initial state is fitted on its "
                        f"first {WARM_UP:.0%} (shaded), and the VAF counts the rest."),
-        "magnitude": (_gain_figure(result), "Gain of each channel against frequency, shaded: pointwise "
-                      "95 % confidence band of the estimate."),
+        "step_responses": (_step_figure(result), "Unit-step responses from each input to each output "
+                           f"(deviations), to {SETTLING_TIME_CONSTANTS:g} time constants of the slowest pole" + bands),
+        "magnitude": (_gain_figure(result), "Gain of each channel against frequency" + bands),
     }
-    shown = "".join(
-        f"<figure>{embedded_image(save_figure(fig, out / f'{name}.png'), name)}"
-        f"<figcaption class='note'>{caption}</figcaption></figure>" for name, (fig, caption) in drawn.items())
+    tested = longest_segment(result.validation)
+    lags = min(25, tested.N // SAMPLES_PER_LAG - 1)   # as the sampled report: fewer on a short record
+    analysis = residual_analysis(model, tested, lags=lags) if lags >= 1 else None
+    if analysis is not None:
+        drawn["residuals"] = (figures.residual_correlations(analysis), "Residual correlations on the validation "
+                              f"record with their {analysis.confidence:.0%} bands: autocorrelation, then the "
+                              "cross-correlation with each input (positive lags: past inputs).")
+    shown = {name: f"<figure>{embedded_image(save_figure(fig, out / f'{name}.png'), name)}"
+             f"<figcaption class='note'>{caption}</figcaption></figure>" for name, (fig, caption) in drawn.items()}
+    residuals = "" if analysis is None else residual_section(analysis, shown.pop("residuals"))
+    options = facts_table({name: str(value) for name, value in result.options.to_dict().items()})
     poles = "".join(f"<li>{html.escape(line.strip())}</li>" for line in model.pole_table()[1:]
                     if line.startswith("  "))
     page = f"""<!DOCTYPE html>
@@ -145,13 +208,17 @@ def write_continuous_report(result: ContinuousResult, directory: str | Path,
 total {result.seconds:.1f} s. docs/continuous.md says what the method assumes.</p>
 {facts_table(provenance)}
 <h2>Selected model</h2>{facts_table(facts)}
-<h3>Poles (rad per time unit)</h3><ul>{poles}</ul>
+{warnings_section(warnings)}
+<h3>Poles (rad per time unit): time constants, natural frequencies and damping</h3><ul>{poles}</ul>
 <h3>Static gains with their 95 % intervals</h3>{_gain_table(result)}
 {"" if result.covariance_note is None else f"<p>No covariance, so no intervals or bands: {html.escape(result.covariance_note)}</p>"}
 <h2>Greedy structure path</h2>
 <p class="note">J: the criterion on the estimation record. VAF: validation record, percent.</p>
 {_path_table(result)}
-<h2>Figures</h2>{shown}
+<h2>Validation</h2>{_scores_table(result)}
+<h2>Figures</h2>{"".join(shown.values())}
+{residuals}
+<h2>Options</h2>{options}
 </body></html>
 """
     target = out / "report.html"

@@ -213,9 +213,12 @@ def irregular_warning(
         more = f"; and {len(long) - LISTED_GAPS} more" if len(long) > LISTED_GAPS else ""
         plural = "" if len(long) == 1 else "s"
         text += f"; {len(long)} gap{plural} longer than {GAP_FACTOR:g} Ts: {listed}{more}"
-    text += (". The record is split into segments at each gap (the filters restart there); "
-             "shorter irregular steps are used as if evenly spaced. The warning's gaps "
+    # both time domains read the same record: the sentence says what each does with it
+    text += (". A sampled (discrete-time) model splits the record into segments at each gap (the "
+             "filters restart there) and takes the shorter irregular steps as if evenly spaced; "
+             "a continuous-time fit (--continuous) uses every stamp as read. The warning's gaps "
              "attribute lists every irregular step." if long else
-             ". The samples are used as if evenly spaced; the warning's gaps attribute lists "
-             "every irregular step.")
+             ". A sampled (discrete-time) model takes the samples as if evenly spaced; a "
+             "continuous-time fit (--continuous) uses every stamp as read. The warning's gaps "
+             "attribute lists every irregular step.")
     return IrregularSamplingWarning(text, gaps)

@@ -26,8 +26,10 @@ import numpy as np
 from ..data.files import read_data
 from ..data.iodata import IOData
 from ..errors import DataError, OptionError
+from ..method.continuous import ContinuousResult
 from ..method.identification import IdentificationResult, identify
 from ..method.options import IdentifyOptions
+from ..models.continuous import ContinuousModel
 from .warning_capture import thread_warnings
 from ..models.statespace import StateSpaceModel
 from ..validation.comparison import compare
@@ -53,8 +55,8 @@ class FleetEntry:
     ----------
     name : str
         The record's name (its key, its file's stem, or ``record-<position>``).
-    result : IdentificationResult or None
-        The identification; None when it failed.
+    result : IdentificationResult or ContinuousResult or None
+        The identification (a ContinuousResult with ``time="continuous"``); None when it failed.
     error : str or None
         Why it failed (exception type and message); None when it succeeded.
     seconds : float
@@ -70,7 +72,7 @@ class FleetEntry:
     """
 
     name: str
-    result: IdentificationResult | None
+    result: IdentificationResult | ContinuousResult | None
     error: str | None
     seconds: float
     warnings: tuple[str, ...] = ()
@@ -144,7 +146,7 @@ class FleetResult:
         """The entries whose identification failed."""
         return [entry for entry in self.entries if not entry.ok]
 
-    def models(self) -> dict[str, StateSpaceModel]:
+    def models(self) -> dict[str, StateSpaceModel | ContinuousModel]:
         """The selected model of every identified record, by name."""
         return {e.name: e.result.model for e in self.entries if e.result is not None}
 

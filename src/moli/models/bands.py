@@ -23,6 +23,7 @@ import numpy as np
 
 from ..data.iodata import as_signal
 from ..errors import DataError, OptionError
+from .propagation import propagate
 from .simulation import simulate_batch
 
 __all__ = ["magnitude_bands", "step_bands", "output_bands"]
@@ -95,6 +96,33 @@ def _interval(values: np.ndarray, confidence: float) -> tuple[np.ndarray, np.nda
     return lower, upper
 
 
+def _simulated(model: Any, A: np.ndarray, B: np.ndarray, C: np.ndarray, u: np.ndarray,
+               t: np.ndarray | None) -> np.ndarray:
+    """Outputs (R, N, p) of the R systems ``(A, B, C)`` in the model's time domain, zero initial state.
+
+    Sampled: ``x[k+1] = A x[k] + B u[k]``; continuous: ``x' = A x + B u`` exact between
+    the stamps ``t`` for the model's ``input_hold``.
+    """
+    if not model.is_continuous:
+        return simulate_batch(A, B, C, u)
+    linear = np.full((u.shape[1], 1), model.input_hold == "foh")
+    with np.errstate(all="ignore"):     # an unstable draw's overflow stays inf, as a sampled one's does
+        return np.stack([propagate(a, b, t - t[0], u[:, :, None], linear)[:, :, 0] @ c.T
+                         for a, b, c in zip(A, B, C)])
+
+
+def _stamps(model: Any, t: object, count: int) -> np.ndarray | None:
+    """A continuous model's stamps, one per sample and increasing; None for a sampled model."""
+    if not model.is_continuous:
+        return None
+    if t is None:
+        raise DataError("a continuous model's bands need the time stamps t of the samples")
+    stamps = np.array(t, dtype=float, ndmin=1)
+    if stamps.shape != (count,) or not np.all(np.isfinite(stamps)) or np.any(np.diff(stamps) <= 0):
+        raise DataError(f"t must be {count} finite increasing time stamps (one per sample), got shape {np.shape(t)}")
+    return stamps
+
+
 def _normal_quantile(confidence: float) -> float:
     import scipy.special  # only when a band is drawn
 
@@ -112,10 +140,11 @@ def magnitude_bands(
 
     Parameters
     ----------
-    model : StateSpaceModel
+    model : StateSpaceModel or ContinuousModel
         With a covariance (``cov_factor``).
     omega : array_like, shape (W,)
-        Frequencies in rad per time unit of ``Ts`` (the Nyquist frequency is ``pi / Ts``).
+        Frequencies in rad per time unit (the Nyquist frequency of a sampled model is ``pi / Ts``;
+        a continuous model's gain is ``|H(1j omega)|``).
     confidence : float, default 0.95
         Probability held by each pointwise interval, in (0, 1).
     method : {"gauss", "monte_carlo"}, default "gauss"
@@ -147,8 +176,8 @@ def magnitude_bands(
     """
     confidence = _check_options(confidence, method, samples, seed)
     w = _frequencies(omega)
-    # a continuous model (no Ts) is evaluated on the imaginary axis
-    z = 1j * w if getattr(model, "Ts", None) is None else np.exp(1j * w * model.Ts)
+    # a continuous model is evaluated on the imaginary axis
+    z = 1j * w if model.is_continuous else np.exp(1j * w * model.Ts)
     factor = _factor(model)
     if method == "monte_carlo":
         A, B, C, D = _draws(model, samples, seed)
@@ -175,16 +204,18 @@ def magnitude_bands(
 
 def output_bands(
     model: Any, u: object, confidence: float = 0.95, *, method: str = "gauss", samples: int = 1000,
-    seed: int = 0,
+    seed: int = 0, t: object = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Pointwise confidence bands of the simulated output for the input ``u`` (deviations, zero state).
 
     Parameters
     ----------
-    model : StateSpaceModel
+    model : StateSpaceModel or ContinuousModel
         With a covariance (``cov_factor``).
     u : array_like, shape (N, m)
         Input deviations (1-D accepted when m = 1).
+    t : array_like, shape (N,), optional
+        The samples' time stamps: needed by a continuous model, unused by a sampled one.
     confidence, method, samples, seed
         As in :func:`magnitude_bands`. Monte Carlo keeps ``samples x N x p`` outputs.
 
@@ -202,41 +233,44 @@ def output_bands(
     """
     confidence = _check_options(confidence, method, samples, seed)
     inputs = as_signal("u", u, model.m)
+    stamps = _stamps(model, t, inputs.shape[0])
     factor = _factor(model)
     if method == "monte_carlo":
         A, B, C, D = _draws(model, samples, seed)
-        outputs = simulate_batch(A, B, C, inputs) + np.einsum("spm,tm->stp", D, inputs)
+        outputs = _simulated(model, A, B, C, inputs, stamps) + np.einsum("spm,tm->stp", D, inputs)
         return _interval(outputs, confidence)
     n = model.n
-    nominal = model.simulate(inputs)
+    nominal = model.simulate_at(inputs, stamps)
     variance = np.zeros_like(nominal)
     for start in range(0, factor.shape[1], DIRECTION_CHUNK):
         dA, dB, dC, dD = _split(model, factor[:, start : start + DIRECTION_CHUNK].T)
         r = dA.shape[0]
         # tangent system: x+ = A x + B u, dx+ = A dx + dA x + dB u, dy = C dx + dC x + dD u
+        # (the same in continuous time with x' for x+)
         tangent = np.zeros((r, 2 * n, 2 * n))
         tangent[:, :n, :n] = tangent[:, n:, n:] = model.A
         tangent[:, n:, :n] = dA
         drive = np.concatenate([np.broadcast_to(model.B, dB.shape), dB], axis=1)
         read = np.concatenate([dC, np.broadcast_to(model.C, dC.shape)], axis=2)
-        change = simulate_batch(tangent, drive, read, inputs) + np.einsum("rpm,tm->rtp", dD, inputs)
+        change = _simulated(model, tangent, drive, read, inputs, stamps) + np.einsum("rpm,tm->rtp", dD, inputs)
         variance += np.sum(change**2, axis=0)
     spread = _normal_quantile(confidence) * np.sqrt(variance)
     return nominal - spread, nominal + spread
 
 
 def step_bands(
-    model: Any, n_steps: int, confidence: float = 0.95, *, method: str = "gauss", samples: int = 1000,
+    model: Any, n_steps: int | object, confidence: float = 0.95, *, method: str = "gauss", samples: int = 1000,
     seed: int = 0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Pointwise confidence bands of the unit-step responses from every input.
 
     Parameters
     ----------
-    model : StateSpaceModel
+    model : StateSpaceModel or ContinuousModel
         With a covariance (``cov_factor``).
-    n_steps : int
-        Samples of each response, from the step at sample 0 (zero initial state).
+    n_steps : int, or array_like of shape (N,) for a continuous model
+        Samples of each response, from the step at sample 0 (zero initial state); for a
+        continuous model, the increasing times of the samples, the step at the first.
     confidence, method, samples, seed
         As in :func:`magnitude_bands`; every input's responses use the same draws.
 
@@ -253,14 +287,22 @@ def step_bands(
     >>> lower.shape, bool(lower[-1, 0, 0] < 2.0 < upper[-1, 0, 0])     # the static gain 1 / (1 - 0.5)
     ((30, 1, 1), True)
     """
-    if isinstance(n_steps, bool) or not isinstance(n_steps, (int, np.integer)) or n_steps < 1:
+    if model.is_continuous:
+        stamps = np.array(n_steps, dtype=float, ndmin=1) if isinstance(n_steps, (list, tuple, np.ndarray)) else None
+        if stamps is None or stamps.ndim != 1:
+            raise OptionError(f"a continuous model's step bands need the times after the step (a 1-D array, "
+                              f"the step at the first), got {n_steps!r}")
+        count = _stamps(model, stamps, stamps.size).size
+    elif isinstance(n_steps, bool) or not isinstance(n_steps, (int, np.integer)) or n_steps < 1:
         raise OptionError(f"n_steps must be an integer >= 1, got {n_steps!r}")
+    else:
+        stamps, count = None, int(n_steps)
     _check_options(confidence, method, samples, seed)
     _factor(model)
-    lower, upper = np.empty((2, n_steps, model.p, model.m))
+    lower, upper = np.empty((2, count, model.p, model.m))
     for j in range(model.m):
-        step = np.zeros((n_steps, model.m))
+        step = np.zeros((count, model.m))
         step[:, j] = 1.0
         lower[:, :, j], upper[:, :, j] = output_bands(
-            model, step, confidence, method=method, samples=samples, seed=seed)
+            model, step, confidence, method=method, samples=samples, seed=seed, t=stamps)
     return lower, upper

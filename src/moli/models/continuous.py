@@ -1,5 +1,9 @@
 """Continuous-time models: from a sampled model and back (zero-order hold or Tustin).
 
+A :class:`ContinuousModel` answers what every moli model answers (:mod:`moli.models.protocol`):
+simulation on a record's stamps from a given initial state, free responses, poles,
+frequency response, bands; its ``Ts`` is None.
+
 A sampled model becomes a :class:`ContinuousModel`, a small class of its own rather
 than a flag on :class:`~moli.models.statespace.StateSpaceModel`: simulation, the
 filters, structure indices and the refinement of that class are all discrete time,
@@ -9,32 +13,26 @@ and a continuous model has none of them (docs/diagnostics.md §2).
 from __future__ import annotations
 
 import json
-import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import scipy.linalg
 
 from .._version import __version__
 from ..data.atomic_files import write_atomic
 from ..errors import DataError, OptionError
+from .bands import magnitude_bands, step_bands
 from .checks import Dimensions, matrix
 from .frequency import check_omega, frequency_response
 from .propagation import propagate
+from .sampling import CONVERSION_METHODS, continuous_matrices, discretize
 from .statespace import FILE_FORMAT, StateSpaceModel
 
 __all__ = ["ContinuousModel", "CONVERSION_METHODS", "HOLDS", "to_continuous", "discretize"]
 
-CONVERSION_METHODS = ("zoh", "tustin")
 # Inter-sample assumptions of the input: held from each sample to the next, or linear.
 HOLDS = ("zoh", "foh")
-# Poles closer than this (relative to the model's scale) to z = 0, or to the negative
-# real axis in angle, have no real continuous-time counterpart worth trusting: the
-# logarithm there is infinite or complex, and round-off of order sqrt(eps) in a
-# computed eigenvalue can move it across the branch cut.
-POLE_TOLERANCE = float(np.sqrt(np.finfo(float).eps))
 
 
 @dataclass(frozen=True, eq=False)
@@ -57,6 +55,16 @@ class ContinuousModel(Dimensions):
     cov_factor : ndarray, shape (n*n + n*m + p*n + p*m, r), optional
         ``F`` with ``cov(vec[A, B, C, D]) = F F'`` (an identified model carries it; the
         gain and frequency-response bands of :mod:`moli.models.bands` use it).
+    input_hold : {"zoh", "foh"}, default "zoh"
+        The inputs between samples when the model is simulated on a record (by
+        :func:`moli.compare` and the bands): held or linear, as it was identified.
+    info : dict
+        JSON-serialisable facts about the estimation, as :attr:`StateSpaceModel.info`
+        (``moli fit --continuous`` writes the options, warnings and input file there).
+    Ts : None
+        A continuous model has no sampling period (a :class:`StateSpaceModel`'s ``Ts``).
+    K : None
+        No noise model: k-step prediction is not defined in continuous time.
 
     Examples
     --------
@@ -79,6 +87,12 @@ class ContinuousModel(Dimensions):
     u_offset: np.ndarray
     input_delays: tuple[float, ...]
     cov_factor: np.ndarray | None = None
+    input_hold: str = "zoh"
+    info: dict[str, Any] = field(default_factory=dict)
+
+    is_continuous = True
+    Ts = None
+    K = None
 
     def __post_init__(self) -> None:
         n, m, p = self.A.shape[0], self.B.shape[1], self.C.shape[0]
@@ -94,6 +108,10 @@ class ContinuousModel(Dimensions):
             if factor.shape[0] != rows:
                 raise DataError(f"cov_factor must have {rows} rows (vec of A, B, C, D), got {factor.shape[0]}")
             object.__setattr__(self, "cov_factor", factor)
+        if self.input_hold not in HOLDS:
+            raise DataError(f"input_hold must be one of {HOLDS}, got {self.input_hold!r}")
+        if not isinstance(self.info, dict):
+            raise DataError(f"info must be a dict, got {type(self.info).__name__}")
 
     def __repr__(self) -> str:
         return f"ContinuousModel(n={self.n}, p={self.p}, m={self.m}, stable={self.is_stable()})"
@@ -106,7 +124,7 @@ class ContinuousModel(Dimensions):
         """True when every pole has a negative real part."""
         return bool(self.n == 0 or np.max(self.poles().real) < 0.0)
 
-    def simulate(self, u: object, t: object = None, hold: str = "zoh") -> np.ndarray:
+    def simulate(self, u: object, t: object = None, hold: str = "zoh", x0: object | None = None) -> np.ndarray:
         """Output deviations at the stamps ``t`` for the input deviations ``u``.
 
         Exact for the stated inter-sample behaviour of the input (docs/continuous.md §2).
@@ -119,6 +137,8 @@ class ContinuousModel(Dimensions):
             Strictly increasing time stamps, any spacing.
         hold : {"zoh", "foh"}, default "zoh"
             The input between stamps: held at each sample, or linear.
+        x0 : array_like, shape (n,), optional
+            State at ``t[0]``; zero by default.
 
         Returns
         -------
@@ -154,9 +174,65 @@ class ContinuousModel(Dimensions):
         if np.any(np.diff(stamps) <= 0):
             k = int(np.flatnonzero(np.diff(stamps) <= 0)[0]) + 1
             raise DataError(f"t must increase: t[{k}] = {stamps[k]:g} follows t[{k - 1}] = {stamps[k - 1]:g}")
+        start = None
+        if x0 is not None:
+            start = np.array(x0, dtype=float).reshape(-1)
+            if start.shape != (self.n,) or not np.all(np.isfinite(start)):
+                raise DataError(f"x0 must be {self.n} finite numbers, got shape {np.shape(x0)}")
         states = propagate(self.A, self.B, stamps - stamps[0], inputs[:, :, None],
-                           np.full((self.m, 1), hold == "foh"))[:, :, 0]
+                           np.full((self.m, 1), hold == "foh"), None if start is None else start[:, None])[:, :, 0]
         return states @ self.C.T + inputs @ self.D.T
+
+    def simulate_at(self, u: np.ndarray, t: np.ndarray, x0: np.ndarray | None = None) -> np.ndarray:
+        """Outputs of one segment of a record: input deviations ``u`` (N, m) at its stamps ``t`` (N,).
+
+        The protocol's simulation (:mod:`moli.models.protocol`), with the model's own
+        :attr:`input_hold`.
+        """
+        return self.simulate(u, t, self.input_hold, x0)
+
+    def free_response_at(self, t: np.ndarray, negligible: float | None = None) -> np.ndarray:
+        """Outputs at the stamps ``t`` from each unit initial state at ``t[0]``, no input: (N, p, n).
+
+        ``negligible`` is a sampled model's cut of a decayed response; here every stamp is kept.
+        """
+        stamps = np.asarray(t, dtype=float)
+        states = propagate(self.A, np.zeros((self.n, 1)), stamps - stamps[0], np.zeros((stamps.size, 1, self.n)),
+                           np.zeros((1, self.n), dtype=bool), np.eye(self.n))
+        return np.einsum("pi,kic->kpc", self.C, states)
+
+    def magnitude_bands(
+        self, omega: object, confidence: float = 0.95, *, method: str = "gauss", samples: int = 1000,
+        seed: int = 0,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Pointwise confidence bands of the gain ``|H(1j omega)|``, shape (len(omega), p, m) each.
+
+        ``omega`` in rad per time unit; needs ``cov_factor``. See
+        :func:`moli.models.bands.magnitude_bands` for the parameters.
+        """
+        return magnitude_bands(self, omega, confidence, method=method, samples=samples, seed=seed)
+
+    def step_bands(
+        self, t: object, confidence: float = 0.95, *, method: str = "gauss", samples: int = 1000,
+        seed: int = 0,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Pointwise confidence bands of the unit-step responses at the times ``t`` after the step.
+
+        ``t`` (shape (N,), increasing, the step at ``t[0]``) takes the place of a
+        sampled model's ``n_steps``; the result has shape (N, p, m) each, entry
+        ``[k, i, j]`` bounding output ``i`` at ``t[k]`` after a unit step on input ``j``.
+        Needs ``cov_factor``; see :func:`moli.models.bands.step_bands`.
+
+        Examples
+        --------
+        >>> model = ContinuousModel(np.array([[-1.0]]), np.array([[1.0]]), np.array([[1.0]]), np.zeros((1, 1)),
+        ...                         ("y1",), ("u1",), np.zeros(1), np.zeros(1), (0.0,),
+        ...                         cov_factor=[[0.0], [0.1], [0.0], [0.0]])
+        >>> lower, upper = model.step_bands([0.0, 50.0])      # gain b / 1, b = 1 +- 0.1
+        >>> np.round([lower[1, 0, 0], upper[1, 0, 0]], 3)
+        array([0.804, 1.196])
+        """
+        return step_bands(self, t, confidence, method=method, samples=samples, seed=seed)
 
     def static_gain(self) -> np.ndarray:
         """``D - C A^-1 B``, shape (p, m): the steady output change per unit input step."""
@@ -216,6 +292,7 @@ class ContinuousModel(Dimensions):
             "y_offset": self.y_offset.tolist(), "u_offset": self.u_offset.tolist(),
             "input_delays": list(self.input_delays),
             "cov_factor": None if self.cov_factor is None else self.cov_factor.tolist(),
+            "input_hold": self.input_hold, "info": self.info,
         }
 
     @classmethod
@@ -226,7 +303,7 @@ class ContinuousModel(Dimensions):
             arrays["A"], arrays["B"], arrays["C"], arrays["D"], tuple(content["output_names"]),
             tuple(content["input_names"]), np.array(content["y_offset"], dtype=float),
             np.array(content["u_offset"], dtype=float), tuple(float(d) for d in content["input_delays"]),
-            content.get("cov_factor"),
+            content.get("cov_factor"), content.get("input_hold", "zoh"), content.get("info") or {},
         )
 
     def save(self, path: str | Path) -> None:
@@ -285,114 +362,14 @@ class ContinuousModel(Dimensions):
                           inputs=list(self.input_names), outputs=list(self.output_names))
 
 
-def _method(method: object) -> str:
-    if method not in CONVERSION_METHODS:
-        raise OptionError(f"method must be one of {CONVERSION_METHODS}, got {method!r}")
-    return str(method)
-
-
 def to_continuous(model: StateSpaceModel, method: str = "zoh") -> ContinuousModel:
     """The continuous model whose sampling by ``method`` at ``model.Ts`` is ``model``.
 
     "zoh": ``[[Ac, Bc], [0, 0]] = logm([[A, B], [0, I]]) / Ts`` (the inverse of the
     zero-order hold); "tustin": the inverse of the bilinear map ``s = (2/Ts)(z-1)/(z+1)``.
     """
-    kind = _method(method)
-    inverse = _zoh_inverse if kind == "zoh" else _tustin_inverse
-    Ac, Bc, Cc, Dc = inverse(model)
+    Ac, Bc, Cc, Dc = continuous_matrices(model, method)
     return ContinuousModel(
         Ac, Bc, Cc, Dc, model.output_names, model.input_names, model.y_offset.copy(),
         model.u_offset.copy(), tuple(float(d * model.Ts) for d in model.input_delays),
     )
-
-
-def _scale(A: np.ndarray) -> float:
-    return max(1.0, float(np.linalg.norm(A, 2))) if A.size else 1.0
-
-
-def _pole(z: complex) -> str:
-    return f"z = {z.real:.4g}" + (f"{z.imag:+.4g}j" if z.imag else "")
-
-
-def _no_conversion(method: str, problem: str, poles: np.ndarray, tustin_works: bool) -> DataError:
-    """The refusal of ``to_continuous(method)``, naming the poles and the ways forward."""
-    options = ["method='tustin', the bilinear map, which converts these poles (exact at low "
-               "frequency, warped near Nyquist)"] if tustin_works else []
-    options += [
-        "keep the discrete model: simulate, frequency_response, to_control() and the "
-        "controller design all work in discrete time",
-        "identify from data sampled faster (a higher sampling rate puts real modes near "
-        "z = 1, away from z <= 0), or pick a lower order from result.path: a pole on the "
-        "negative real axis is often a mode fitted to noise",
-    ]
-    listed = "; ".join(f"({k}) {option}" for k, option in enumerate(options, start=1))
-    return DataError(
-        f"to_continuous(method={method!r}) has no real solution: {problem}: "
-        f"{', '.join(_pole(z) for z in poles)}. Options: {listed}"
-    )
-
-
-def _zoh_inverse(model: StateSpaceModel) -> tuple[np.ndarray, ...]:
-    A, B, n, m = model.A, model.B, model.n, model.m
-    poles = model.poles()
-    near_zero = np.abs(poles) <= POLE_TOLERANCE * _scale(A)
-    bad = near_zero | (np.abs(np.angle(poles)) >= np.pi - POLE_TOLERANCE)
-    logarithm = None
-    if not np.any(bad):
-        block = np.zeros((n + m, n + m))
-        block[:n, :n], block[:n, n:], block[n:, n:] = A, B, np.eye(m)
-        with warnings.catch_warnings():
-            # scipy notes any error estimate above 1000 eps; the imaginary part is checked below
-            warnings.simplefilter("ignore", RuntimeWarning)
-            logarithm = scipy.linalg.logm(block) / model.Ts
-        size = max(1.0, float(np.max(np.abs(logarithm))))
-        if np.max(np.abs(np.imag(logarithm))) > 1e-9 * size:
-            # a negative real pole the tolerance let through: its logarithm is complex
-            bad = np.abs(np.angle(poles)) == np.max(np.abs(np.angle(poles)))
-            logarithm = None
-    if logarithm is None:
-        raise _no_conversion(
-            "zoh", "the model has poles at z = 0 or on the negative real axis, which no "
-            "zero-order hold of a continuous system produces", poles[bad],
-            tustin_works=not np.any(np.abs(poles + 1.0) <= POLE_TOLERANCE * _scale(A)))
-    real = np.real(logarithm)
-    return real[:n, :n].copy(), real[:n, n:].copy(), model.C.copy(), model.D.copy()
-
-
-def _tustin_inverse(model: StateSpaceModel) -> tuple[np.ndarray, ...]:
-    A, B, C, D, Ts, n = model.A, model.B, model.C, model.D, model.Ts, model.n
-    at_minus_one = np.abs(model.poles() + 1.0) <= POLE_TOLERANCE * _scale(A)
-    if np.any(at_minus_one):
-        # a pole at -1 is on the negative real axis: the zero-order hold fails as well
-        raise _no_conversion(
-            "tustin", "the model has poles at z = -1, which the bilinear map sends to "
-            "infinity (and which no zero-order hold produces either)",
-            model.poles()[at_minus_one], tustin_works=False)
-    shifted = A + np.eye(n)
-    # Ac = (2/Ts)(A - I)(A + I)^-1 (the factors commute), Bc = (2/Ts)(A + I)^-1 B,
-    # Cc = 2 C (A + I)^-1, Dc = D - Cc B / 2: solves, no inverse formed
-    Ac = (2.0 / Ts) * np.linalg.solve(shifted.T, (A - np.eye(n)).T).T
-    Bc = (2.0 / Ts) * np.linalg.solve(shifted, B)
-    Cc = 2.0 * np.linalg.solve(shifted.T, C.T).T
-    return Ac, Bc, Cc, D - 0.5 * Cc @ B
-
-
-def discretize(
-    A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, Ts: float, method: str = "zoh"
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Sampled matrices of a continuous model: zero-order hold (``expm`` of the block
-    matrix ``[[A, B], [0, 0]] Ts``) or Tustin (``s = (2/Ts)(z-1)/(z+1)``)."""
-    kind = _method(method)
-    n, m = B.shape
-    if kind == "zoh":
-        block = np.zeros((n + m, n + m))
-        block[:n, :n], block[:n, n:] = A * Ts, B * Ts
-        exponential = scipy.linalg.expm(block)
-        return exponential[:n, :n], exponential[:n, n:], C.copy(), D.copy()
-    half = np.eye(n) - 0.5 * Ts * A
-    if n and np.linalg.cond(half) > 1.0 / np.finfo(float).eps:
-        raise DataError(f"method='tustin' has no solution: A has an eigenvalue at 2/Ts = {2 / Ts:g}")
-    Ad = np.linalg.solve(half, np.eye(n) + 0.5 * Ts * A)
-    Bd = np.linalg.solve(half, Ts * B)
-    Cd = np.linalg.solve(half.T, C.T).T
-    return Ad, Bd, Cd, D + 0.5 * C @ Bd

@@ -19,7 +19,7 @@ from .checks import Dimensions, channel_names, checked_divisors, covariance, ind
 from .delays import check_delays, delay_states, shift_inputs
 from .frequency import check_omega, frequency_response
 from .interop import to_control
-from .simulation import simulate_batch
+from .simulation import free_response, simulate_batch
 
 __all__ = ["StateSpaceModel"]
 
@@ -72,6 +72,8 @@ class StateSpaceModel(Dimensions):
     >>> m.simulate([1.0, 0.0, 0.0]).ravel()
     array([0. , 1. , 0.5])
     """
+
+    is_continuous = False   # the protocol every model answers (moli.models.protocol)
 
     def __init__(
         self,
@@ -169,6 +171,15 @@ class StateSpaceModel(Dimensions):
             start = start[None]
         y = simulate_batch(self.A[None], self.B[None], self.C[None], uu, start)[0]
         return y + uu @ self.D.T
+
+    def simulate_at(self, u: np.ndarray, t: np.ndarray, x0: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`simulate` on one segment of a record; its stamps ``t`` are ``k * Ts`` (checked by the caller)."""
+        return self.simulate(u, x0)
+
+    def free_response_at(self, t: np.ndarray, negligible: float | None = None) -> np.ndarray:
+        """Outputs ``C A^k e_i`` at the samples ``t`` from each unit initial state, (N, p, n); with
+        ``negligible``, cut where they have decayed (:func:`moli.models.simulation.free_response`)."""
+        return free_response(self.A, self.C, len(t), negligible)
 
     def poles(self) -> np.ndarray:
         """Eigenvalues of ``A`` (discrete time)."""

@@ -6,14 +6,14 @@ import numpy as np
 
 from ..data.iodata import IOData
 from ..models.bands import output_bands
-from ..models.statespace import StateSpaceModel
+from ..models.protocol import LinearModel, check_model
 from .prediction import deviations
 
 __all__ = ["simulation_bands"]
 
 
 def simulation_bands(
-    model: StateSpaceModel, data: IOData, confidence: float = 0.95, *, method: str = "gauss",
+    model: LinearModel, data: IOData, confidence: float = 0.95, *, method: str = "gauss",
     samples: int = 1000, seed: int = 0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Pointwise confidence bands of ``model``'s simulation on ``data``'s inputs.
@@ -24,8 +24,9 @@ def simulation_bands(
 
     Parameters
     ----------
-    model : StateSpaceModel
-        With a covariance (from :func:`moli.identify` or :func:`moli.estimate`).
+    model : StateSpaceModel or ContinuousModel
+        With a covariance (from :func:`moli.identify` or :func:`moli.estimate`). A
+        continuous model is simulated on the record's own stamps (``data.time()``).
     data : IOData
         Raw or centred data; offsets are handled as :func:`moli.compare` does. Each
         segment is simulated from the zero state.
@@ -59,9 +60,10 @@ def simulation_bands(
     >>> lower.shape, bool(inside.mean() > 0.8)
     ((500, 1), True)
     """
-    u, _ = deviations(model, data)
+    u, _ = deviations(check_model(model), data)
+    t = data.time()
     # each segment simulated from the zero state, as moli.compare does
-    runs = [output_bands(model, u[a:b], confidence, method=method, samples=samples, seed=seed)
+    runs = [output_bands(model, u[a:b], confidence, method=method, samples=samples, seed=seed, t=t[a:b])
             for a, b in data.bounds]
     lower, upper = (np.concatenate([run[i] for run in runs]) for i in (0, 1))
     shift = model.y_offset - data.y_offset

@@ -11,7 +11,7 @@ from ..data.display import console_text
 from ..data.iodata import IOData
 from ..errors import DataError
 from .metrics import nrmse_fit, vaf
-from ..models.statespace import StateSpaceModel
+from ..models.protocol import LinearModel
 # X0_CHOICES is read from here by the options and the command line
 from .prediction import X0_CHOICES, checked_deviations, initial_state, predicted_deviations  # noqa: F401
 
@@ -78,20 +78,23 @@ class Comparison:
         return "\n".join(lines)
 
 
-def estimate_initial_state(model: StateSpaceModel, u: np.ndarray, y: np.ndarray) -> np.ndarray:
+def estimate_initial_state(model: LinearModel, u: np.ndarray, y: np.ndarray, t: np.ndarray | None = None
+                           ) -> np.ndarray:
     """Least-squares initial state of ``model`` for deviation data ``(u, y)``.
 
     Parameters
     ----------
-    model : StateSpaceModel
+    model : StateSpaceModel or ContinuousModel
     u : ndarray, shape (N, m)
     y : ndarray, shape (N, p)
+    t : ndarray, shape (N,), optional
+        The samples' stamps; needed by a continuous model.
 
     Returns
     -------
     ndarray, shape (n,)
     """
-    return initial_state(model, u, y)
+    return initial_state(model, u, y, None, t)
 
 
 def same_period(a: float, b: float) -> bool:
@@ -99,7 +102,7 @@ def same_period(a: float, b: float) -> bool:
     return math.isclose(a, b, rel_tol=TS_TOLERANCE)
 
 
-def compare(model: StateSpaceModel, data: IOData, x0: str = "zero", horizon: int | None = None) -> Comparison:
+def compare(model: LinearModel, data: IOData, x0: str = "zero", horizon: int | None = None) -> Comparison:
     """Simulate ``model`` on ``data``'s inputs and score it against the outputs.
 
     With ``horizon=k`` the scored outputs are the k-step-ahead predictions instead
@@ -109,17 +112,19 @@ def compare(model: StateSpaceModel, data: IOData, x0: str = "zero", horizon: int
 
     Parameters
     ----------
-    model : StateSpaceModel
+    model : StateSpaceModel or ContinuousModel
+        A continuous model is simulated on the record's own stamps (``data.time()``,
+        regular or not), its inputs held or linear between them as it was identified.
     data : IOData
         Raw or centred data; the model's operating point is used to move between
         the two (``data.u_offset``/``y_offset`` say what was already removed). Its
-        ``Ts`` must be the model's (relative tolerance 1e-6).
+        ``Ts`` must be a sampled model's (relative tolerance 1e-6).
     x0 : {"zero", "estimate"}
         Start the simulation from the zero state, or from the least-squares
         initial state fitted to this record (uses the outputs: say so when reporting).
     horizon : int or None, default None
         None: simulation. ``k >= 1``: k-step-ahead prediction, which needs the
-        model's noise model (``model.K``).
+        model's noise model (``model.K``; a continuous model has none).
 
     Returns
     -------
@@ -140,12 +145,13 @@ def compare(model: StateSpaceModel, data: IOData, x0: str = "zero", horizon: int
     100.0
     """
     k, u, y = checked_deviations(model, data, x0, horizon)
-    if not same_period(data.Ts, model.Ts):
+    if not model.is_continuous and not same_period(data.Ts, model.Ts):
         raise DataError(
             f"the record is sampled every Ts = {data.Ts:g}, the model every Ts = {model.Ts:g}; "
             "a discrete-time model only describes records of its own sampling period"
         )
-    runs = [predicted_deviations(model, u[a:b], y[a:b], k, x0) for a, b in data.bounds]
+    t = data.time()
+    runs = [predicted_deviations(model, u[a:b], y[a:b], k, x0, t[a:b]) for a, b in data.bounds]
     ydev = np.concatenate([run[0] for run in runs])
     start = runs[0][1] if len(runs) == 1 else np.stack([run[1] for run in runs])
     return Comparison(

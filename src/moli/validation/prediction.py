@@ -18,6 +18,7 @@ from ..data.iodata import IOData
 from ..errors import DataError, OptionError
 from ..models.delays import shift_inputs
 from ..models.simulation import free_response, simulate_batch
+from ..models.protocol import LinearModel, check_model
 from ..models.statespace import StateSpaceModel
 from ..numerics.triangular import tall_factor
 
@@ -39,8 +40,14 @@ def horizon_value(horizon: object) -> int | None:
     return int(horizon)  # type: ignore[call-overload]
 
 
-def check_horizon(model: StateSpaceModel, horizon: object) -> int | None:
+def check_horizon(model: LinearModel, horizon: object) -> int | None:
     """``horizon`` as None (simulation) or an int >= 1 that the model can predict at."""
+    if horizon_value(horizon) is not None and model.is_continuous:
+        raise OptionError(
+            f"horizon={horizon!r}: k-step prediction is defined for sampled models with a noise model; a "
+            "continuous-time model has none (time='continuous' estimates no noise model): use horizon=None "
+            "for its simulation, or predict with a sampled model (model.to_discrete(Ts) has no noise model "
+            "either: identify one in discrete time)")
     if horizon_value(horizon) is not None and model.K is None:
         raise OptionError(
             f"horizon={horizon!r} needs a noise model, and this model has none (model.K is None); "
@@ -50,7 +57,7 @@ def check_horizon(model: StateSpaceModel, horizon: object) -> int | None:
     return horizon_value(horizon)
 
 
-def deviations(model: StateSpaceModel, data: IOData) -> tuple[np.ndarray, np.ndarray]:
+def deviations(model: LinearModel, data: IOData) -> tuple[np.ndarray, np.ndarray]:
     """``data``'s inputs and outputs as deviations from the model's operating point.
 
     The inputs are as recorded: the model's own methods apply its input delays.
@@ -65,26 +72,34 @@ def deviations(model: StateSpaceModel, data: IOData) -> tuple[np.ndarray, np.nda
 
 
 def checked_deviations(
-    model: StateSpaceModel, data: IOData, x0: str, horizon: int | None
+    model: LinearModel, data: IOData, x0: str, horizon: int | None
 ) -> tuple[int | None, np.ndarray, np.ndarray]:
     """The checked horizon and ``data`` as deviations (:func:`deviations`), after checking
     every argument of a simulation or prediction of ``model`` on ``data``."""
     if not isinstance(x0, str) or x0 not in X0_CHOICES:
         raise OptionError(f"x0 must be one of {X0_CHOICES}, got {x0!r}")
-    if not isinstance(model, StateSpaceModel):
-        raise DataError(f"model must be a StateSpaceModel, got {type(model).__name__}")
-    k = check_horizon(model, horizon)
+    k = check_horizon(check_model(model), horizon)
     u, y = deviations(model, data)
     return k, u, y
 
 
-def _delay_free(model: StateSpaceModel, u: np.ndarray) -> tuple[StateSpaceModel, np.ndarray]:
+def _stamps(model: LinearModel, count: int, t: np.ndarray | None) -> np.ndarray:
+    """A segment's stamps: ``t``, which a continuous model needs; a sampled model's sample numbers without it."""
+    if t is None:
+        if model.is_continuous:
+            raise DataError("a continuous model is simulated on the record's time stamps: pass t")
+        return np.arange(count)
+    return t
+
+
+def _delay_free(model: LinearModel, u: np.ndarray) -> tuple[LinearModel, np.ndarray]:
     """The model without its input delays, and the inputs shifted by them instead.
 
     The predictor's recursions use ``A`` and ``B`` directly, on inputs that already
-    carry the dead times.
+    carry the dead times. A continuous model keeps its delays (its own simulation
+    says it cannot simulate them).
     """
-    if not any(model.input_delays):
+    if model.is_continuous or not any(model.input_delays):
         return model, u
     return model.with_input_delays(0), shift_inputs(u, model.input_delays)
 
@@ -119,7 +134,8 @@ def _predicted(
     return yhat
 
 
-def initial_state(model: StateSpaceModel, u: np.ndarray, y: np.ndarray, horizon: int | None = None) -> np.ndarray:
+def initial_state(model: LinearModel, u: np.ndarray, y: np.ndarray, horizon: int | None = None,
+                  t: np.ndarray | None = None) -> np.ndarray:
     """Least-squares initial state for the k-step predictions (deviation data).
 
     The k-step prediction is affine in the initial state: ``C A^t x0`` while no output
@@ -128,11 +144,13 @@ def initial_state(model: StateSpaceModel, u: np.ndarray, y: np.ndarray, horizon:
 
     Parameters
     ----------
-    model : StateSpaceModel
+    model : StateSpaceModel or ContinuousModel
     u : ndarray, shape (N, m)
     y : ndarray, shape (N, p)
     horizon : int or None, default None
-        None: the simulation's initial state.
+        None: the simulation's initial state (the only one of a continuous model).
+    t : ndarray, shape (N,), optional
+        The samples' stamps: needed by a continuous model (its free response ``C exp(A t)``).
 
     Returns
     -------
@@ -140,9 +158,10 @@ def initial_state(model: StateSpaceModel, u: np.ndarray, y: np.ndarray, horizon:
     """
     model, u = _delay_free(model, u)
     N, n = y.shape[0], model.n
+    stamps = _stamps(model, N, t)
     if horizon is None or horizon > N - 1:
-        forced = model.simulate(u)
-        basis = free_response(model.A, model.C, N, NEGLIGIBLE_FREE_RESPONSE)
+        forced = model.simulate_at(u, stamps)
+        basis = model.free_response_at(stamps, NEGLIGIBLE_FREE_RESPONSE)
     else:
         forced = _predicted(model, u, y, horizon, None)
         gain = model.C @ np.linalg.matrix_power(model.A, horizon - 1)
@@ -175,21 +194,22 @@ def fit_free_response(basis: np.ndarray, target: np.ndarray) -> np.ndarray:
 
 
 def predicted_deviations(
-    model: StateSpaceModel, u: np.ndarray, y: np.ndarray, horizon: int | None, x0: str
+    model: LinearModel, u: np.ndarray, y: np.ndarray, horizon: int | None, x0: str, t: np.ndarray | None = None
 ) -> tuple[np.ndarray, np.ndarray]:
     """Predictions (or the simulation) on deviation data, and the initial state used.
 
-    ``horizon`` and ``x0`` must already be checked (:func:`check_horizon`, :data:`X0_CHOICES`).
+    ``horizon`` and ``x0`` must already be checked (:func:`check_horizon`, :data:`X0_CHOICES`);
+    ``t``, the segment's stamps, is needed by a continuous model.
     """
     model, u = _delay_free(model, u)
-    start = initial_state(model, u, y, horizon) if x0 == "estimate" else np.zeros(model.n)
+    start = initial_state(model, u, y, horizon, t) if x0 == "estimate" else np.zeros(model.n)
     if horizon is None:
-        return model.simulate(u, start), start
+        return model.simulate_at(u, _stamps(model, u.shape[0], t), start), start
     return _predicted(model, u, y, horizon, start), start
 
 
 def predict(
-    model: StateSpaceModel, data: IOData, horizon: int | None = None, x0: str = "estimate"
+    model: LinearModel, data: IOData, horizon: int | None = None, x0: str = "estimate"
 ) -> np.ndarray:
     """k-step-ahead predicted outputs of ``model`` on ``data``.
 
@@ -199,8 +219,9 @@ def predict(
 
     Parameters
     ----------
-    model : StateSpaceModel
-        With a noise model (``model.K`` not None) for ``horizon >= 1``.
+    model : StateSpaceModel or ContinuousModel
+        With a noise model (``model.K`` not None) for ``horizon >= 1``; a continuous model
+        has none, so only its simulation (``horizon=None``) is defined.
     data : IOData
         Raw or centred data; offsets are handled as :func:`moli.compare` does. Each
         segment is predicted from its own initial state.
@@ -219,7 +240,7 @@ def predict(
     ------
     OptionError
         ``horizon`` not None or an integer >= 1, ``horizon >= 1`` for a model without a
-        noise model (``model.K is None``), or ``x0`` not one of the choices.
+        noise model (``model.K is None``, every continuous model), or ``x0`` not one of the choices.
     DataError
         ``data`` not an :class:`IOData` with the model's channels.
 
@@ -236,6 +257,7 @@ def predict(
     True
     """
     k, u, y = checked_deviations(model, data, x0, horizon)
+    t = data.time()
     # each segment from its own initial state: the predictor does not run across a gap
-    ydev = np.concatenate([predicted_deviations(model, u[a:b], y[a:b], k, x0)[0] for a, b in data.bounds])
+    ydev = np.concatenate([predicted_deviations(model, u[a:b], y[a:b], k, x0, t[a:b])[0] for a, b in data.bounds])
     return ydev + model.y_offset - data.y_offset

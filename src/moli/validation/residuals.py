@@ -16,7 +16,7 @@ import numpy as np
 from ..data.display import figure_label, report_name
 from ..data.iodata import IOData, require_one_segment
 from ..errors import DataError, OptionError
-from ..models.statespace import StateSpaceModel
+from ..models.protocol import LinearModel, check_model
 from .prediction import X0_CHOICES, deviations, horizon_value, predicted_deviations
 from .whitening import fit_ar
 
@@ -176,7 +176,7 @@ def _verdict(name: str, white_p: float, independence_p: np.ndarray, inputs: tupl
 
 
 def residual_analysis(
-    model: StateSpaceModel,
+    model: LinearModel,
     data: IOData,
     lags: int = 25,
     confidence: float = 0.99,
@@ -187,7 +187,8 @@ def residual_analysis(
 
     Parameters
     ----------
-    model : StateSpaceModel
+    model : StateSpaceModel or ContinuousModel
+        A continuous model is simulated on the record's stamps (it has no noise model).
     data : IOData
         Preferably a record the model was not estimated on.
     lags : int, default 25
@@ -232,8 +233,7 @@ def residual_analysis(
         raise OptionError(f"confidence must be a number in (0, 1), got {confidence!r}")
     if not isinstance(x0, str) or x0 not in X0_CHOICES:
         raise OptionError(f"x0 must be one of {X0_CHOICES}, got {x0!r}")
-    if not isinstance(model, StateSpaceModel):
-        raise DataError(f"model must be a StateSpaceModel, got {type(model).__name__}")
+    check_model(model)
     k = horizon_value(horizon)  # checked even when unused
     if isinstance(data, IOData):
         require_one_segment(data, "residual_analysis (correlations over lags)")
@@ -246,7 +246,7 @@ def residual_analysis(
                         f"lags={lags}, got {N}; lower lags")
     from scipy.special import chdtrc, ndtri  # slow to import: only when testing
 
-    yhat, _ = predicted_deviations(model, u, y, k, x0)
+    yhat, _ = predicted_deviations(model, u, y, k, x0, data.time())
     residuals = y - yhat
     z = float(ndtri(0.5 + 0.5 * confidence))
     e = residuals - residuals.mean(axis=0)

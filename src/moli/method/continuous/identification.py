@@ -13,10 +13,12 @@ from ...data.iodata import IOData
 from ...errors import DataError, OptionError, OrderBoundWarning
 from ...models.continuous import ContinuousModel
 from ..options.identify_options import IdentifyOptions
+from ..selection.checks import warn_if_no_better_than_mean
 from ..selection.order_rules import select_by_shares, select_order
 from .covariance import covariance_factor
 from .estimation import stamped_record
 from .filters import continuous_grid
+from .reach import check_continuous_reach
 from .search import ContinuousSearch, ContinuousStep, greedy_path
 
 __all__ = ["ContinuousResult", "identify_continuous"]
@@ -140,6 +142,7 @@ def identify_continuous(estimation: IOData, validation: IOData, source: str, opt
     ContinuousResult
     """
     _check(opts)
+    check_continuous_reach(opts.nmax, opts.order, estimation)
     start = time.perf_counter()
     if opts.center:
         estimation = estimation.remove_means()
@@ -177,5 +180,9 @@ def identify_continuous(estimation: IOData, validation: IOData, source: str, opt
             fitted, step.eta, step.indices, opts.s, step.thetas, opts.input_hold == "foh")), None
     except DataError as exc:
         model, note = step.model, str(exc)
+    # what the sampled pipeline records on its model: the options, the hold to simulate it with
+    model = replace(model, input_hold=opts.input_hold, info={**model.info, "options": opts.to_dict(),
+                                                             "validation_vaf": step.vaf.tolist()})
+    warn_if_no_better_than_mean(model, validation, opts.x0, stacklevel=3)
     return ContinuousResult(model, path, chosen, opts, source, time.perf_counter() - start,
                             estimation, validation, note)

@@ -1,0 +1,53 @@
+"""The orders a record can reach in continuous time: ``nmax`` and ``order`` checked before any work."""
+
+from __future__ import annotations
+
+from ...data.iodata import IOData
+from ...errors import DataError
+from ..structure.indices import Indices, generic_indices
+from .estimation import StampedRecord, stamped_record
+
+__all__ = ["largest_continuous_order", "check_continuous_reach"]
+
+
+def _feasible(record: StampedRecord, indices: Indices) -> bool:
+    """Whether the record's rows determine every output's parameters for the list (as the search asks)."""
+    p, m, skip = record.p, record.m, max(indices)
+    channels = p + m + record.with_rows(skip)
+    needed = max(channels * l + j + 1 for j, l in enumerate(indices)) + 1
+    return record.rows(skip) >= needed
+
+
+def largest_continuous_order(record: StampedRecord) -> int:
+    """The largest order whose cheapest list (the generic one) the record can estimate; ``p - 1`` when none."""
+    p = record.p
+
+    def fits(n: int) -> bool:
+        return _feasible(record, generic_indices(n, p))
+
+    # double a bound past the answer, then bisect: an nmax of 10^5 is answered in microseconds
+    low, high = p - 1, p
+    while fits(high):
+        low, high = high, 2 * high
+    while high - low > 1:
+        middle = (low + high) // 2
+        low, high = (middle, high) if fits(middle) else (low, middle)
+    return low
+
+
+def check_continuous_reach(nmax: int | None, order: int | None, estimation: IOData) -> None:
+    """An ``nmax`` or ``order`` asked for must be within what the estimation record can estimate.
+
+    Raises :class:`DataError` naming the option, the flag and the largest order, before
+    the filters or the search run (they would take minutes and end in a singular solve).
+    """
+    if nmax is None and order is None:
+        return
+    record = stamped_record(estimation)
+    reach = largest_continuous_order(record)
+    for name, value in (("nmax", nmax), ("order", order)):
+        if value is not None and value > reach:
+            raise DataError(
+                f"IdentifyOptions.{name} = {value} (moli fit --continuous --{name}) is beyond what "
+                f"{record.rows(0)} samples of {record.p} outputs and {record.m} inputs can estimate in "
+                f"continuous time: the largest order is {reach}; lower it or give a longer record")
