@@ -262,7 +262,7 @@ def demo(out_dir: Path, nmax: int, all_lists: bool, force: bool) -> None:
                    "with --reference, else open].")
 @_FORCE
 @reading_options
-def fit(data_files: tuple[Path, ...], inputs: str | None, outputs: str | None, daisy: str | None,
+def fit(*, data_files: tuple[Path, ...], inputs: str | None, outputs: str | None, daisy: str | None,
         data_dir: Path | None, ts: float | None, options_file: Path | None, nmax: int | None,
         order: int | None, fraction: float, seed: int | None, preset: str | None, x0: str | None,
         outliers: str, model_path: Path | None, report_dir: Path | None, all_lists: bool,
@@ -328,7 +328,7 @@ def fit(data_files: tuple[Path, ...], inputs: str | None, outputs: str | None, d
               help="Where to write the measured-against-simulated figure [default: OUT/validation.png].")
 @_FORCE
 @reading_options
-def validate(model_file: Path, data_files: tuple[Path, ...], inputs: str | None, outputs: str | None,
+def validate(*, model_file: Path, data_files: tuple[Path, ...], inputs: str | None, outputs: str | None,
              x0: str, out_dir: Path | None, plot: Path | None, force: bool, **reading: Any) -> None:
     """Score MODEL on DATA: VAF and fit per output, and a figure.
 

@@ -118,7 +118,7 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
                   help="Keep the models in --out made with these options from these very files; identify the rest.")
     @click.option("--timeout", type=click.FloatRange(min=0, min_open=True), metavar="SECONDS",
                   help="End a record that runs longer (its worker process with it) and list it as timed out.")
-    def fit_many(patterns: tuple[str, ...], inputs: str, outputs: str, ts: float | None,
+    def fit_many(*, patterns: tuple[str, ...], inputs: str, outputs: str, ts: float | None,
                  workers: int | None, scheduler: str | None, options_file: Path | None,
                  preset: str | None, nmax: int | None, seed: int | None, out_dir: Path, force: bool,
                  resume: bool, timeout: float | None) -> None:

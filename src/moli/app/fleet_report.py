@@ -72,6 +72,7 @@ def write_summary(
     stem: str,
     title: str,
     sort_by: str,
+    *,
     flagged: Sequence[bool] | None = None,
     notes: Sequence[str] = (),
     warnings: Sequence[tuple[str, Sequence[str]]] = (),

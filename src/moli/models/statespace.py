@@ -240,13 +240,8 @@ class StateSpaceModel(Dimensions):
     def warn_if_unstable(self, stacklevel: int = 2) -> None:
         """Issue an :class:`UnstableModelWarning` if the model is unstable."""
         if not self.is_stable():
-            radius = np.max(np.abs(self.poles()))
-            warnings.warn(
-                f"identified model (indices {list(self.indices or [])}) is unstable: "
-                f"largest pole modulus {radius:.4g}",
-                UnstableModelWarning,
-                stacklevel=stacklevel + 1,
-            )
+            warnings.warn(f"identified model (indices {list(self.indices or [])}) is unstable: largest pole "
+                          f"modulus {np.max(np.abs(self.poles())):.4g}", UnstableModelWarning, stacklevel=stacklevel + 1)
 
     def to_control(self, noise: bool = False, continuous: bool = False):  # -> control.StateSpace
         """Convert to a python-control ``StateSpace`` with the channel names.
