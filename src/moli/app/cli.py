@@ -25,6 +25,7 @@ from ..data.iodata import IOData
 from ..data.outliers import flag_outliers, remove_outliers
 from ..errors import DataError, MoliError, OptionError
 from ..method.identification import IdentificationResult
+from ..method.closed_loop.reference_projection import without_reference
 from ..method.options import PRESETS, IdentifyOptions
 from ..method.search.greedy_path import PathStep, StructureSearch, exhaustive
 from ..models.storage import load_model
@@ -279,6 +280,11 @@ def fit(*, data_files: tuple[Path, ...], inputs: str | None, outputs: str | None
     """
     if bool(data_files) == (daisy is not None):
         raise DataError("give either DATA files or --daisy NAME")
+    for flag, named in (("--inputs", inputs), ("--outputs", outputs)):
+        shared = [name for name in names(reference) or () if name in (names(named) or ())]
+        if shared:
+            raise OptionError(f"--reference {','.join(shared)}: also named in {flag}; --reference names the "
+                              "logged set-points, columns apart from the plant's inputs and outputs")
     options = options_from_flags(options_file, preset, nmax=nmax, order=order, seed=seed, x0=x0,
                                  time="continuous" if continuous else None, input_hold=input_hold,
                                  reference=names(reference), closed_loop=closed_loop)
@@ -297,7 +303,10 @@ def fit(*, data_files: tuple[Path, ...], inputs: str | None, outputs: str | None
             data = read_records(data_files, [*names(inputs), *names(reference)] if inputs and reference
                                 else names(inputs), names(outputs), ts, reading, noted)
             source = ", ".join(map(str, data_files))
-    click.echo(f"{source}: {data}" + (f" (the {len(data_files)} files merged)" if len(data_files) > 1 else ""))
+    # the plant as identify sees it: the references are read as inputs but are not the plant's
+    plant = without_reference(data, options.reference) if options.reference else data
+    click.echo(f"{source}: {plant}" + (f", references {list(options.reference)}" if options.reference else "")
+               + (f" (the {len(data_files)} files merged)" if len(data_files) > 1 else ""))
     removed = flag_outliers(data).counts if outliers == "remove" else {}
     if removed:
         data = remove_outliers(data)
