@@ -71,10 +71,13 @@ def test_ctrl_c_at_twenty_moments_of_a_fit_is_one_line_and_keeps_every_written_m
         context = f"Ctrl-C at {moment:.2f} s of {seconds:.2f}: exit code {code}\n{stderr}"
         assert "Traceback" not in stderr, context
         assert code in (0, 3, 130), context
-        assert len(said) <= 1, context     # one line (none when the run had already ended)
+        # one line; none when the signal came after the run had ended (code 0)
+        assert len(said) == 1 or (code == 0 and not said), context
+        assert all(line.startswith("moli: interrupted") for line in said), context
         written = folder / "run" / "model.json"
         if code in (0, 3):
-            assert moli.load_model(written).n == 4, context
+            # a search cut after its first order keeps that order's model
+            assert moli.load_model(written).n in ((4,) if code == 0 else (3, 4)), context
         else:
             assert said == ["moli: interrupted"] and not written.exists(), context
         seen.add(code)

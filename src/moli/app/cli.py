@@ -115,7 +115,8 @@ def _identify(data: IOData, fraction: float, options: IdentifyOptions, noted: Ru
         click.echo(f"moli: interrupted; keeping the model before the {result.skipped[0]} "
                    f"(skipped: {', '.join(result.skipped)})", err=True)
     elif result.interrupted:
-        click.echo(f"moli: search interrupted after {len(result.path)} orders; keeping the best "
+        done = len(result.path)
+        click.echo(f"moli: interrupted after {done} order{'s' * (done != 1)} of the search; keeping the best "
                    "model found so far", err=True)
     result.model.info.update({
         "data": {"sha256": fingerprint(estimation), "N": estimation.N,
