@@ -70,7 +70,8 @@ class InterruptHold:
     def release(self) -> bool:
         """Restore the handler that was in place; whether Ctrl-C came while held."""
         if self._held:
-            signal.signal(signal.SIGINT, self._previous)
+            # None: a handler set outside Python, which cannot be put back; Python's own instead
+            signal.signal(signal.SIGINT, signal.default_int_handler if self._previous is None else self._previous)
             self._held = False
         return self.received
 
