@@ -33,7 +33,7 @@ def failed(analysis: moli.ResidualAnalysis) -> bool:
 def describe(name: str, analysis: moli.ResidualAnalysis) -> None:
     print(f"{name}: whiteness p = {np.round(analysis.whiteness_pvalue, 4).tolist()}; independence p, smallest "
           f"per output = {np.round(np.nanmin(analysis.independence_pvalue, axis=1), 4).tolist()}; "
-          f"fails a test: {failed(analysis)}")
+          f"fails a test: {failed(analysis)}; tested {analysis.tested_samples}")
 
 
 def main() -> None:

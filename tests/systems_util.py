@@ -107,3 +107,33 @@ def pi_loop(seed: int, N: int = 3000, colour: float = 0.9, sd: float = 0.3) -> m
         u[k] = error + 0.15 * integral
         x = PI_LOOP_A @ x + PI_LOOP_B @ u[k]
     return moli.IOData(y, np.hstack([u, r]), input_names=["u1", "u2", "r1", "r2"])
+
+
+# A 2x2 plant of four real modes in modal form (poles 0.97, 0.9, 0.8, 0.6, unit-order DC gains),
+# for the residual tests on records that start away from rest.
+STARTED_POLES = np.array([0.97, 0.9, 0.8, 0.6])
+STARTED_B = np.array([[1.0, 0.5], [-0.6, 1.0], [0.8, 0.7], [0.5, -1.0]]) * (1.0 - STARTED_POLES)[:, None] * 3.0
+STARTED_C = np.array([[1.0, 0.6, -0.8, 0.5], [0.4, -1.0, 0.7, 1.0]])
+
+
+def started_models() -> dict[str, moli.StateSpaceModel]:
+    """The plant, a model whose poles match its own to 3 decimals (each 1e-4 higher), and a model
+    without its 0.8 mode (the other three modes exact)."""
+    keep = [0, 1, 3]
+    return {
+        "true plant": moli.StateSpaceModel(np.diag(STARTED_POLES), STARTED_B, STARTED_C),
+        "poles to 3 decimals": moli.StateSpaceModel(np.diag(STARTED_POLES + 1e-4), STARTED_B, STARTED_C),
+        "missing mode": moli.StateSpaceModel(np.diag(STARTED_POLES[keep]), STARTED_B[keep], STARTED_C[:, keep]),
+    }
+
+
+def started_record(seed: int, N: int = 1000, noise: float = 0.05, start: float = 30.0) -> moli.IOData:
+    """The plant of :func:`started_models` driven by input steps (standard normal levels held
+    50 samples), starting at rest under an earlier input of standard deviation ``start`` (its
+    outputs tens of units, hundreds of noise levels, from where the steps keep them), with white
+    output noise of standard deviation ``noise``."""
+    rng = np.random.default_rng(seed)
+    plant = started_models()["true plant"]
+    u = np.repeat(rng.standard_normal((-(-N // 50), 2)), 50, axis=0)[:N]
+    x0 = np.linalg.solve(np.eye(4) - plant.A, plant.B @ (start * rng.standard_normal(2)))
+    return moli.IOData(plant.simulate(u, x0) + noise * rng.standard_normal((N, 2)), u)

@@ -1,6 +1,6 @@
 """Run the moli command: ``python -m moli``."""
 
-from .app.cli import main
+from .app.console import main
 
 if __name__ == "__main__":
     main()

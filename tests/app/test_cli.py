@@ -141,7 +141,7 @@ def test_ctrl_c_keeps_the_best_model_so_far(tmp_path, csv_file, monkeypatch):
     model_path = tmp_path / "model.json"
     result = run("fit", str(csv_file), "--inputs", INPUTS, "--outputs", OUTPUTS, "--nmax", "8",
                  "--out", str(model_path))
-    assert result.exit_code == 0, result.stderr
+    assert result.exit_code == 3, result.stderr   # a model written from a partial run
     assert "interrupted after 2 orders" in result.stderr
     assert moli.load_model(model_path).n in (calls[0].order, calls[1].order)
 

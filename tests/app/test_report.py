@@ -172,6 +172,8 @@ def test_report_has_the_residual_analysis_with_one_verdict_per_output(written):
     verdicts = re.findall(r"<li>(y\d): residuals", section)
     assert verdicts == ["y1", "y2", "y3"]
     assert "1-25" in section  # 200 validation samples: the default 25 lags need only 104
+    # which samples were tested: the last is the validation record's last
+    assert re.search(r"tested samples \d+-199 of 200", section)
 
 
 def test_a_long_records_spectral_estimate_is_drawn_at_a_log_spaced_subset_of_its_frequencies():

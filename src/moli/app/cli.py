@@ -2,7 +2,8 @@
 
 Bad input (missing or unreadable file, unknown column, non-numeric or empty cell, too
 few samples, a model that does not match the data) ends with one line
-``moli: error: ...`` on stderr and exit code 2, never a traceback.
+``moli: error: ...`` on stderr and exit code 2, never a traceback; a model written from a
+partial run gives 3, Ctrl-C before any model is written 130 (:mod:`moli.app.console`).
 """
 
 from __future__ import annotations
@@ -35,9 +36,10 @@ from .figure_files import save_figure
 from .figures import measured_vs_simulated
 from .fleet_cli import fleet_commands
 from .fleet_report import SCORES
-from .outputs import REPORT_FILE, refuse_overwrite, run_folder
+from .outputs import MODEL_WRITTEN, REPORT_FILE, refuse_overwrite, run_folder, save_held
 from .progress import READING_SHOWN_AFTER, Phases
 from .reading import RunWarnings, names, read_records, reading_options
+from .console import PARTIAL, USAGE_ERROR, InterruptHold, interrupted
 from .continuous_fit import fit_continuous
 from .describe import describe
 from .search_run import held_out_search
@@ -45,8 +47,6 @@ from .report import write_report
 
 __all__ = ["cli", "main", "describe", "options_from_flags"]
 
-USAGE_ERROR = 2
-INTERRUPTED = 130
 # --all-lists fits every list only for orders with at most this many lists: the count
 # C(n-1, p-1) grows fast, and each list costs one filter search.
 MAX_LISTS_PER_ORDER = 30
@@ -65,6 +65,8 @@ class _Group(click.Group):
         except click.UsageError as exc:
             click.echo(f"moli: error: {exc.format_message()}", err=True)
             sys.exit(USAGE_ERROR)
+        except KeyboardInterrupt:   # while the flags are parsed: nothing written yet
+            sys.exit(interrupted())
 
     def invoke(self, ctx: click.Context) -> Any:
         try:
@@ -75,9 +77,9 @@ class _Group(click.Group):
         except (MoliError, OSError) as exc:
             click.echo(f"moli: error: {console_text(exc)}", err=True)
             ctx.exit(USAGE_ERROR)
-        except KeyboardInterrupt:
-            click.echo("moli: interrupted", err=True)
-            ctx.exit(INTERRUPTED)
+        except KeyboardInterrupt:   # 3 once the model is written (docs/cli.md, exit codes)
+            written = ctx.meta.get(MODEL_WRITTEN)
+            ctx.exit(interrupted(None if written is None else console_text(written)))
 
 
 def options_from_flags(options_file: Path | None, preset: str | None, **flags: Any) -> IdentifyOptions:
@@ -119,15 +121,17 @@ def _model_options(model: dict[str, Any], options_file: Path) -> dict[str, Any]:
 
 
 def _identify(data: IOData, fraction: float, options: IdentifyOptions, noted: RunWarnings,
-              last_run: str | None = None) -> IdentificationResult:
-    """Split off the validation tail and run the greedy search with a progress bar."""
-    result = held_out_search(data, fraction, options, noted, last_run)
+              last_run: str | None = None, hold: InterruptHold | None = None) -> IdentificationResult:
+    """Split off the validation tail and run the greedy search with a progress bar; ``hold``
+    starts as the search returns (:func:`_finish` releases it once the model is written)."""
+    result = held_out_search(data, fraction, options, noted, last_run, hold=hold)
     estimation, validation = data.split(1.0 - fraction)     # the records as read, for the fingerprint
     if result.skipped:
         click.echo(f"moli: interrupted; keeping the model before the {result.skipped[0]} "
                    f"(skipped: {', '.join(result.skipped)})", err=True)
     elif result.interrupted:
-        click.echo(f"moli: search interrupted after {len(result.path)} orders; keeping the best "
+        done = len(result.path)
+        click.echo(f"moli: interrupted after {done} order{'s' * (done != 1)} of the search; keeping the best "
                    "model found so far", err=True)
     result.model.info.update({
         "data": {"sha256": fingerprint(estimation), "N": estimation.N,
@@ -138,8 +142,9 @@ def _identify(data: IOData, fraction: float, options: IdentifyOptions, noted: Ru
     return result
 
 
-def _all_lists(result: IdentificationResult) -> list[PathStep]:
-    """Every list of each path order with few enough lists, minus the path itself."""
+def _all_lists(result: IdentificationResult) -> tuple[list[PathStep], bool]:
+    """Every list of each path order with few enough lists, minus the path itself; and whether
+    Ctrl-C stopped them (the lists done are kept)."""
     opts = result.options
     search = StructureSearch(result.estimation, result.validation, result.omega,
                              opts.tuning, opts.iterations, opts.s, seed=opts.seed, x0=opts.x0)
@@ -151,24 +156,26 @@ def _all_lists(result: IdentificationResult) -> list[PathStep]:
         for order in tqdm(orders, desc="every list", unit="order", file=sys.stderr):
             tried += [st for st in exhaustive(search, order) if st.indices not in on_path]
     except KeyboardInterrupt:
-        click.echo("moli: stopped fitting every list; the report shows those done", err=True)
-    return tried
+        click.echo("moli: interrupted; stopped fitting every list, the report shows those done", err=True)
+        return tried, True
+    return tried, False
 
 
 def _finish(result: IdentificationResult, model_path: Path, report_dir: Path | None, all_lists: bool,
-            noted: RunWarnings, data_files: tuple[Path, ...] = ()) -> None:
+            noted: RunWarnings, hold: InterruptHold, *, data_files: tuple[Path, ...] = ()) -> int:
+    """Print the summary, write the model and the report; the exit code (0, or 3 for a partial run)."""
     click.echo(result.summary())
     result.model.info["warnings"] = list(noted.messages)
-    model_path.parent.mkdir(parents=True, exist_ok=True)
-    result.model.save(model_path)
-    click.echo(f"model written to {model_path}")
+    save_held(result.model, model_path, hold)
+    lists_stopped = False
     if report_dir is not None:
-        tried = _all_lists(result) if all_lists else []
+        tried, lists_stopped = _all_lists(result) if all_lists else ([], False)
         with Phases() as phases:
             phases("report")
             report = write_report(result, report_dir, tried, data_file=data_files[0] if len(data_files) == 1 else None,
                                   warnings=noted.messages)
         click.echo(f"report written to {report}")
+    return PARTIAL if result.interrupted or lists_stopped else 0
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
@@ -209,9 +216,11 @@ def demo(out_dir: Path, nmax: int, all_lists: bool, force: bool) -> None:
     data = example_data()
     click.echo(f"built-in example plant: {data}")
     noted = RunWarnings()
-    result = _identify(data, 0.5, IdentifyOptions(nmax=nmax), noted)
-    result.model.info["data"]["source"] = "moli.example_data()"
-    _finish(result, out_dir / "model.json", out_dir, all_lists, noted)
+    with InterruptHold() as hold:
+        result = _identify(data, 0.5, IdentifyOptions(nmax=nmax), noted, hold=hold)
+        result.model.info["data"]["source"] = "moli.example_data()"
+        code = _finish(result, out_dir / "model.json", out_dir, all_lists, noted, hold)
+    click.get_current_context().exit(code)
 
 
 @cli.command()
@@ -311,17 +320,21 @@ def fit(*, data_files: tuple[Path, ...], inputs: str | None, outputs: str | None
     if removed:
         data = remove_outliers(data)
         click.echo(f"outliers replaced by linear interpolation: {removed}")
-    if options.time == "continuous":
-        if all_lists:
-            raise OptionError("--all-lists is for the discrete search: leave it out with --continuous")
-        fit_continuous(data, fraction, options, noted, model_path=model_path, report_dir=report_dir,
-                       data_files=data_files, facts={"source": source, "outliers_removed": removed})
-        return
-    result = _identify(data, fraction, options, noted, str(data_files[-1]) if len(data_files) > 1 else None)
-    result.model.info["data"].update(source=source, file_sha256=[file_sha256(f) for f in data_files]
-                                     if len(data_files) > 1 else file_sha256(data_files[0]),
-                                     outliers_removed=removed)
-    _finish(result, model_path, report_dir, all_lists, noted, data_files)
+    if options.time == "continuous" and all_lists:
+        raise OptionError("--all-lists is for the discrete search: leave it out with --continuous")
+    with InterruptHold() as hold:  # from the search's return to the model on disk, Ctrl-C waits
+        if options.time == "continuous":
+            code = fit_continuous(data, fraction, options, noted, model_path=model_path, report_dir=report_dir,
+                                  data_files=data_files, facts={"source": source, "outliers_removed": removed},
+                                  hold=hold)
+        else:
+            result = _identify(data, fraction, options, noted, str(data_files[-1]) if len(data_files) > 1 else None,
+                               hold)
+            result.model.info["data"].update(source=source, file_sha256=[file_sha256(f) for f in data_files]
+                                             if len(data_files) > 1 else file_sha256(data_files[0]),
+                                             outliers_removed=removed)
+            code = _finish(result, model_path, report_dir, all_lists, noted, hold, data_files=data_files)
+    click.get_current_context().exit(code)
 
 
 @cli.command()
@@ -374,7 +387,8 @@ for _command in fleet_commands(options_from_flags):  # fit-many, validate-many
 
 
 def main() -> None:
-    """Entry point of the ``moli`` console script."""
+    """Run the ``moli`` command on ``sys.argv`` (the console script, :func:`moli.app.console.main`,
+    calls it once the libraries are loaded)."""
     cli(prog_name="moli")
 
 

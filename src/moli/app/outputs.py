@@ -3,19 +3,26 @@
 Each run writes into one folder of its own, named after what it read
 (``moli-fit-plant/`` for ``plant.csv``), unless the user points elsewhere. A file
 that is already there (a model, a report, a figure, a summary) is left alone: the
-command stops before any work with one line naming it and the flag that allows it.
+command stops before any work with one line naming it and the flag that allows it. A
+finished model is written whole even if Ctrl-C comes meanwhile (:func:`save_held`).
 """
 
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Iterable, Sequence
+from typing import Any, Iterable, Sequence
+
+import click
 
 from ..errors import OptionError
+from .console import InterruptHold
 
-__all__ = ["REPORT_FILE", "run_folder", "refuse_overwrite"]
+__all__ = ["REPORT_FILE", "MODEL_WRITTEN", "run_folder", "refuse_overwrite", "save_held"]
 
 REPORT_FILE = "report.html"
+# click's ctx.meta key of the model file a command has written: a later Ctrl-C ends the
+# command as a partial run (exit code 3), not as one that wrote nothing (130)
+MODEL_WRITTEN = "moli.model_written"
 # a folder name joins at most this many record names, then counts the rest
 NAMES_IN_FOLDER = 3
 
@@ -58,3 +65,26 @@ def refuse_overwrite(paths: Iterable[Path], force: bool) -> None:
     for path in paths:
         if path.exists():
             raise OptionError(f"{path} exists: give --force to overwrite it, or --out to write elsewhere")
+
+
+def save_held(model: Any, model_path: Path, hold: InterruptHold) -> None:
+    """Write the finished ``model`` while ``hold`` keeps Ctrl-C from cutting it short, then act on
+    a Ctrl-C that came meanwhile: the command ends as a partial run (exit code 3), the model kept.
+
+    Parameters
+    ----------
+    model : StateSpaceModel or ContinuousModel
+    model_path : Path
+    hold : InterruptHold
+        Started when the search returned.
+    """
+    hold.start()        # a no-op when already held
+    try:
+        model_path.parent.mkdir(parents=True, exist_ok=True)
+        model.save(model_path)
+        click.get_current_context().meta[MODEL_WRITTEN] = model_path
+        click.echo(f"model written to {model_path}")
+    finally:
+        interrupted = hold.release()
+    if interrupted:
+        raise KeyboardInterrupt

@@ -202,8 +202,8 @@ def residual_section(analysis: ResidualAnalysis, figure_html: str) -> str:
             f"{analysis.horizon}-step prediction errors")
     verdicts = "".join(f"<li>{html.escape(v)}</li>" for v in analysis.verdicts)
     return f"""<h2>Residual analysis</h2>
-<p class="note">Residuals on the validation record: {kind}. Whiteness: Ljung-Box test over lags
-1-{analysis.lags}; independence: chi-square test of the correlation with each prewhitened
+<p class="note">Residuals on the validation record: {kind}; tested {analysis.tested_samples}
+(docs/noise_model.md §4). Whiteness: Ljung-Box test over lags 1-{analysis.lags}; independence: chi-square test of the correlation with each prewhitened
 input at lags 0-{analysis.lags}. A test fails below p = {1 - analysis.confidence:.2g}: of these
 {analysis.tests} tests, a correct model fails at least one on about {analysis.false_alarm_rate:.0%} of records.</p>
 <ul>{verdicts}</ul>

@@ -10,6 +10,7 @@ from ..errors import DataError
 from ..method.continuous import ContinuousResult
 from ..method.identification import IdentificationResult, identify
 from ..method.options import IdentifyOptions
+from .console import InterruptHold
 from .progress import search_progress
 from .reading import RunWarnings
 
@@ -17,7 +18,8 @@ __all__ = ["held_out_search"]
 
 
 def held_out_search(data: IOData, fraction: float, options: IdentifyOptions, noted: RunWarnings,
-                    last_run: str | None = None) -> IdentificationResult | ContinuousResult:
+                    last_run: str | None = None, *,
+                    hold: InterruptHold | None = None) -> IdentificationResult | ContinuousResult:
     """``identify`` on all but the last ``fraction`` of ``data``, validated on that tail.
 
     Parameters
@@ -30,6 +32,9 @@ def held_out_search(data: IOData, fraction: float, options: IdentifyOptions, not
         Receives every warning of the run.
     last_run : str, optional
         The file the tail comes from when several were merged (said in the result).
+    hold : InterruptHold, optional
+        Started the moment the search returns: from then on the model is complete, and Ctrl-C
+        waits until the caller has written it.
 
     Returns
     -------
@@ -41,6 +46,8 @@ def held_out_search(data: IOData, fraction: float, options: IdentifyOptions, not
     with warnings.catch_warnings(record=True) as caught, search_progress(options, data.p) as (progress, phase):
         warnings.simplefilter("always")
         result = identify(estimation, validation, options, progress=progress, phase=phase)
+        if hold is not None:
+            hold.start()
     noted.add(caught)
     # identify was handed the tail as given validation data: say where it really came from
     result.validation_source = f"held out: last {fraction:.0%} of the record" + (

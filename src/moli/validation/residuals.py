@@ -3,7 +3,10 @@
 The residuals are the one-step prediction errors of a model with a noise model, else
 its simulation errors (docs/noise_model.md §4). A model that has captured the data
 leaves residuals that are white (nothing left to predict from past outputs) and
-uncorrelated with past inputs (nothing left to explain by the inputs).
+uncorrelated with past inputs (nothing left to explain by the inputs). The tests start
+where the estimated initial state's response has fallen to the noise level: before
+that, a small error in a slow mode, multiplied by a large start-up state, would be
+tested instead of the model's response to the inputs and the noise.
 """
 
 from __future__ import annotations
@@ -27,6 +30,13 @@ __all__ = ["ResidualAnalysis", "residual_analysis"]
 SAMPLES_PER_LAG = 4
 # Rows per unknown of the inputs' prewhitening AR models, which bounds their order.
 ROWS_PER_PARAMETER = 10
+# The tests start after the last sample at which the estimated initial state's response exceeds
+# this many noise levels (each output's residual scale): a model whose free response is off by
+# a share d then leaves at most d noise levels of start-up error in the tested samples.
+INITIAL_RESPONSE_LEVELS = 1.0
+# The median absolute deviation of normal noise times this is its standard deviation; the median
+# is not moved by the start-up samples the scale is meant to judge.
+MAD_TO_STD = 1.482602218505602
 # An input's name in the figure's column title, beside its p-value: "vs <name>: p = 0.0038"
 # at 8 points fits a 2.6-inch panel.
 INPUT_TITLE_CHARS = 28
@@ -51,7 +61,12 @@ class ResidualAnalysis:
     Attributes
     ----------
     residuals : ndarray, shape (N, p)
-        Prediction errors (``horizon`` steps ahead) or simulation errors.
+        Prediction errors (``horizon`` steps ahead) or simulation errors, every sample.
+    first_tested : int
+        The first sample the correlations and tests use: samples ``first_tested..N-1``
+        are tested. The earlier ones carry the estimated initial state's response above
+        the noise level (docs/noise_model.md §4); 0 with ``x0="zero"`` or a response
+        below it from the start.
     horizon : int or None
         Prediction horizon of the residuals; None: simulation errors.
     lags : int
@@ -64,7 +79,7 @@ class ResidualAnalysis:
         Normalized correlation of residual ``i`` at ``t`` with input ``j`` at ``t - τ``,
         ``τ = -lags..lags`` (entry ``lags + τ``); positive lags: past inputs.
     whiteness_bound : float
-        ``z / sqrt(N)``: the autocorrelation band at this confidence for white residuals.
+        ``z / sqrt(N - first_tested)``: the autocorrelation band at this confidence for white residuals.
     cross_bound : ndarray, shape (p, m)
         Band of each cross-correlation under independence, widened for the colour of
         the input and of the residual.
@@ -79,6 +94,7 @@ class ResidualAnalysis:
     """
 
     residuals: np.ndarray = field(repr=False)
+    first_tested: int
     horizon: int | None
     lags: int
     confidence: float
@@ -110,6 +126,16 @@ class ResidualAnalysis:
         """
         return float(1.0 - self.confidence ** self.tests)
 
+    @property
+    def tested_samples(self) -> str:
+        """Which samples the tests use, as a phrase: ``"samples 37-999 of 1000 (the first 37
+        skipped: the initial state's response was above the noise level)"``."""
+        N = self.residuals.shape[0]
+        skipped = ("" if self.first_tested == 0 else
+                   f" (the first {self.first_tested} skipped: the initial state's response was "
+                   "above the noise level)")
+        return f"samples {self.first_tested}-{N - 1} of {N}{skipped}"
+
     def plot(self) -> Any:  # -> matplotlib.figure.Figure
         """The correlations with their bands, one row per output (like the toolbox's ``resid``).
 
@@ -131,7 +157,9 @@ class ResidualAnalysis:
         # one lag range per column: its tick labels once, under the bottom row
         axes = fig.subplots(p, m + 1, sharex="col", squeeze=False)
         kind = "simulation errors" if self.horizon is None else f"{self.horizon}-step prediction errors"
-        fig.suptitle(f"residual analysis ({kind}), {self.confidence:.0%} bands", fontsize=10)
+        N = self.residuals.shape[0]
+        fig.suptitle(f"residual analysis ({kind}, samples {self.first_tested}-{N - 1}), "
+                     f"{self.confidence:.0%} bands", fontsize=10)
         own = np.arange(self.lags + 1)
         both = np.arange(-self.lags, self.lags + 1)
         # the channels' names once each, as a channel grid has them: the outputs' on the rows,
@@ -200,6 +228,9 @@ def residual_analysis(
         model (``model.K``); without one, or with ``horizon=None``, the simulation errors.
     x0 : {"estimate", "zero"}, default "estimate"
         Initial state of the predictor (or simulation), as in :func:`moli.predict`.
+        With ``"estimate"``, the tests skip the leading samples where this state's
+        response exceeds the residuals' noise level (:attr:`ResidualAnalysis.first_tested`),
+        leaving at least ``4 (lags + 1)`` samples tested.
 
     Returns
     -------
@@ -246,11 +277,17 @@ def residual_analysis(
                         f"lags={lags}, got {N}; lower lags")
     from scipy.special import chdtrc, ndtri  # slow to import: only when testing
 
-    yhat, _ = predicted_deviations(model, u, y, k, x0, data.time())
+    stamps = data.time()
+    yhat, _ = predicted_deviations(model, u, y, k, x0, stamps)
     residuals = y - yhat
+    # the predictions are affine in the initial state: its response is what the zero state lacks
+    start_response = yhat - predicted_deviations(model, u, y, k, "zero", stamps)[0] if x0 == "estimate" else None
+    first = _first_tested(residuals, start_response, N - SAMPLES_PER_LAG * (lags + 1))
+    tested, u_tested = residuals[first:], u[first:]
+    N = tested.shape[0]
     z = float(ndtri(0.5 + 0.5 * confidence))
-    e = residuals - residuals.mean(axis=0)
-    uc = u - u.mean(axis=0)
+    e = tested - tested.mean(axis=0)
+    uc = u_tested - u_tested.mean(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
         # constant signals give NaN correlations, reported as untested
         e_scaled, u_scaled = e / e.std(axis=0), uc / uc.std(axis=0)
@@ -269,11 +306,28 @@ def residual_analysis(
     verdicts = tuple(_verdict(name, whiteness[i], independence[i], data.input_names, level)
                      for i, name in enumerate(data.output_names))
     return ResidualAnalysis(
-        residuals=residuals, horizon=k, lags=lags, confidence=float(confidence),
+        residuals=residuals, first_tested=first, horizon=k, lags=lags, confidence=float(confidence),
         autocorrelation=auto_e, cross_correlation=cross, whiteness_bound=z / np.sqrt(N),
         cross_bound=cross_bound, whiteness_pvalue=whiteness, independence_pvalue=independence,
         verdicts=verdicts, output_names=data.output_names, input_names=data.input_names,
     )
+
+
+def _first_tested(residuals: np.ndarray, start_response: np.ndarray | None, last: int) -> int:
+    """The first sample after every one where the initial state's response exceeds
+    :data:`INITIAL_RESPONSE_LEVELS` times its output's noise level, at most ``last``.
+
+    The noise level is each output's residual scale from the median absolute deviation, which
+    the few start-up samples cannot inflate. An output with constant residuals (an exact fit)
+    has no noise level and skips nothing.
+    """
+    if start_response is None:
+        return 0
+    centred = residuals - np.median(residuals, axis=0)
+    level = MAD_TO_STD * np.median(np.abs(centred), axis=0)
+    noisy = level > 0.0
+    above = np.flatnonzero(np.any(np.abs(start_response[:, noisy]) > INITIAL_RESPONSE_LEVELS * level[noisy], axis=1))
+    return min(int(above[-1]) + 1, last) if above.size else 0
 
 
 def _independence(e: np.ndarray, u: np.ndarray, auto_e: np.ndarray, lags: int) -> np.ndarray:

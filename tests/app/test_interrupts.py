@@ -1,0 +1,132 @@
+"""Exit codes that tell, and Ctrl-C at any moment: one line, never a traceback, never a lost model.
+
+0: the run is complete; 3: a model was written from a partial run; 130: interrupted with nothing
+written (docs/cli.md, "Exit codes").
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner, Result
+
+import moli
+from moli.app import cli
+
+INPUTS, OUTPUTS = "u1,u2,u3", "y1,y2,y3"
+# the path 3, 4, 5 with the order fixed at 4: a search to interrupt, and no order-bound check
+# after the noise model (its Ctrl-C would be lost inside identify: docs/cli.md, "Exit codes")
+FIT = ["--inputs", INPUTS, "--outputs", OUTPUTS, "--nmax", "5", "--order", "4"]
+# the console script's own two lines: import its entry point and call it. "ready" first, so that the
+# moments are drawn from when the interpreter has started (its own start-up, importing the site
+# packages, is Python's and prints Python's traceback whatever the program)
+LAUNCH = ("import sys; print('ready', flush=True); from moli.app.console import main; "
+          "sys.argv[0] = 'moli'; main()")
+
+
+def run(*args: str) -> Result:
+    return CliRunner().invoke(cli.cli, list(args), prog_name="moli")
+
+
+@pytest.fixture
+def folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    monkeypatch.chdir(tmp_path)
+    moli.to_dataframe(moli.example_data(N=400, seed=3)).to_csv(tmp_path / "plant.csv")
+    return tmp_path
+
+
+def _fit_process(folder: Path, moment: float | None) -> tuple[int, str, float]:
+    """``moli fit`` in a fresh process, Ctrl-C (SIGINT) ``moment`` seconds after it started;
+    its exit code, stderr and seconds."""
+    shutil.rmtree(folder / "run", ignore_errors=True)
+    env = {**os.environ, "PYTHONPATH": str(Path(moli.__file__).parents[1]), "OPENBLAS_NUM_THREADS": "1"}
+    process = subprocess.Popen([sys.executable, "-c", LAUNCH, "fit", "plant.csv", *FIT, "--out", "run/model.json",
+                                "--report", "run/report"], cwd=folder, env=env, text=True,
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert process.stdout.readline() == "ready\n"
+    started = time.perf_counter()
+    if moment is not None:
+        time.sleep(moment)
+        process.send_signal(signal.SIGINT)
+    _, stderr = process.communicate(timeout=300)
+    return process.returncode, stderr, time.perf_counter() - started
+
+
+def test_ctrl_c_at_twenty_moments_of_a_fit_is_one_line_and_keeps_every_written_model(folder):
+    code, stderr, seconds = _fit_process(folder, None)
+    assert code == 0, stderr
+    moments = np.random.default_rng(20).uniform(0.0, seconds, 20)
+    seen = set()
+    for moment in moments:
+        code, stderr, _ = _fit_process(folder, float(moment))
+        said = [line for line in stderr.splitlines() if "interrupted" in line]
+        context = f"Ctrl-C at {moment:.2f} s of {seconds:.2f}: exit code {code}\n{stderr}"
+        assert "Traceback" not in stderr, context
+        assert code in (0, 3, 130), context
+        # one line; none when the signal came after the run had ended (code 0)
+        assert len(said) == 1 or (code == 0 and not said), context
+        assert all(line.startswith("moli: interrupted") for line in said), context
+        written = folder / "run" / "model.json"
+        if code in (0, 3):
+            # a search cut after its first order keeps that order's model
+            assert moli.load_model(written).n in ((4,) if code == 0 else (3, 4)), context
+        else:
+            assert said == ["moli: interrupted"] and not written.exists(), context
+        seen.add(code)
+    # the moments span the run: some before the model is written, some after
+    assert {3, 130} <= seen
+
+
+def test_ctrl_c_during_the_report_keeps_the_model_and_exits_3(folder, monkeypatch):
+    def interrupt(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "write_report", interrupt)
+    done = run("fit", "plant.csv", *FIT)
+    assert done.exit_code == 3, done.stderr
+    assert done.stderr.splitlines()[-1] == "moli: interrupted after writing moli-fit-plant/model.json"
+    assert moli.load_model(folder / "moli-fit-plant" / "model.json").n == 4
+
+
+def test_ctrl_c_while_the_model_is_written_waits_until_it_is_whole(folder, monkeypatch):
+    save = moli.StateSpaceModel.save
+
+    def save_through_ctrl_c(model, path):
+        os.kill(os.getpid(), signal.SIGINT)   # Ctrl-C as the writing starts
+        save(model, path)
+
+    monkeypatch.setattr(moli.StateSpaceModel, "save", save_through_ctrl_c)
+    done = run("fit", "plant.csv", *FIT)
+    assert done.exit_code == 3, done.stderr
+    assert "moli: interrupted after writing moli-fit-plant/model.json" in done.stderr
+    assert moli.load_model(folder / "moli-fit-plant" / "model.json").n == 4
+    assert not (folder / "moli-fit-plant" / "report").exists()   # the report comes after: not written
+    # the process's own Ctrl-C handling is as it was: the next Ctrl-C interrupts again
+    with pytest.raises(KeyboardInterrupt):
+        os.kill(os.getpid(), signal.SIGINT)
+        time.sleep(1.0)
+
+
+def test_ctrl_c_before_any_model_exits_130(folder, monkeypatch):
+    def interrupt(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "read_records", interrupt)
+    done = run("fit", "plant.csv", *FIT)
+    assert done.exit_code == 130
+    assert done.stderr.strip() == "moli: interrupted"
+    assert not (folder / "moli-fit-plant").exists()
+
+
+def test_a_complete_fit_exits_0(folder):
+    done = run("fit", "plant.csv", *FIT, "--out", "model.json")
+    assert done.exit_code == 0, done.stderr
+    assert "interrupted" not in done.stderr
