@@ -27,7 +27,7 @@ import matplotlib  # noqa: E402
 matplotlib.use("Agg")
 
 import moli  # noqa: E402
-from moli.app import figures  # noqa: E402
+from moli.app import figures, frequency_figures  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples"))
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -60,7 +60,7 @@ def main() -> None:
         analysis = moli.residual_analysis(model, validation)
         drawn = {
             "residuals": analysis.plot(),
-            "gain": figures.bode_magnitude(model, validation),
+            "gain": frequency_figures.bode_magnitude(model, validation),
             "step": figures.step_responses(model, figures.settling_samples(model)),
         }
         print(f"### {name.replace('_', ' ')}: {model!r}\n")

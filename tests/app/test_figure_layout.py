@@ -11,7 +11,7 @@ from matplotlib.figure import Figure
 from matplotlib.text import Text
 
 import moli
-from moli.app import figures
+from moli.app import figures, frequency_figures
 from moli.app.figure_files import DPI, save_figure
 from moli.app.figure_layout import GridLayout
 from moli.app.figure_ticks import in_view
@@ -95,8 +95,8 @@ def _figures() -> dict[str, Figure]:
         "steps 1x1": figures.step_responses(siso, 40),
         "steps 3x3": figures.step_responses(grid, 40),
         "steps 2x4, long names": figures.step_responses(wide, 40),
-        "magnitude 3x3 with spectrum": figures.bode_magnitude(grid, record, points=40),
-        "magnitude 2x4, long names": figures.bode_magnitude(wide, points=40),
+        "magnitude 3x3 with spectrum": frequency_figures.bode_magnitude(grid, record, points=40),
+        "magnitude 2x4, long names": frequency_figures.bode_magnitude(wide, points=40),
         "validation 3 outputs": figures.measured_vs_simulated(record, compare(grid, record)),
         "validation long record": figures.measured_vs_simulated(long_record, compare(siso, long_record)),
         "residuals 3x3": figures.residual_correlations(residual_analysis(grid, record, lags=10)),
@@ -104,7 +104,7 @@ def _figures() -> dict[str, Figure]:
         "steps 1x3, gains 1e-5 under titles": figures.step_responses(_scaled_model(), 40),
         "rotated labels, labels at the axes' ends": _rotated_end_labels(),
         "poles": figures.poles(grid),
-        "singular values": figures.singular_values(grid, record, points=40),
+        "singular values": frequency_figures.singular_values(grid, record, points=40),
     }
     assert list(made) == FIGURES
     return made

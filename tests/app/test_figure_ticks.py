@@ -12,7 +12,7 @@ import moli
 from matplotlib.collections import LineCollection
 from matplotlib.ticker import LogFormatterSciNotation, NullLocator
 
-from moli.app import figures
+from moli.app import figures, frequency_figures
 from moli.app.figure_files import DPI, save_figure
 from moli.app.figure_ticks import (PlainLogFormatter, plain_log_labels, trim_ticks, unlabelled_minor_ticks_as_lines,
                                    unplaced_empty_labels)
@@ -37,8 +37,8 @@ def _in_view(axis, locs: np.ndarray) -> np.ndarray:
 
 
 @pytest.mark.parametrize("draw", [
-    lambda model: figures.bode_magnitude(model, points=40),  # shared log axes, minor ticks
-    lambda model: figures.singular_values(model, points=40),  # one log-log axes, a legend
+    lambda model: frequency_figures.bode_magnitude(model, points=40),  # shared log axes, minor ticks
+    lambda model: frequency_figures.singular_values(model, points=40),  # one log-log axes, a legend
 ])
 def test_trimmed_ticks_draw_the_same_pixels(draw):
     model = _model()
@@ -48,7 +48,7 @@ def test_trimmed_ticks_draw_the_same_pixels(draw):
 
 
 def test_a_saved_report_figure_holds_ticks_only_in_its_view(tmp_path):
-    fig = figures.bode_magnitude(_model())
+    fig = frequency_figures.bode_magnitude(_model())
     save_figure(fig, tmp_path / "magnitude.png")
     for ax in fig.axes:
         for axis in (ax.xaxis, ax.yaxis):
@@ -72,7 +72,7 @@ def _saved_by_matplotlib(fig) -> bytes:
 
 
 @pytest.mark.parametrize("draw", [
-    lambda model: figures.bode_magnitude(model, points=40),
+    lambda model: frequency_figures.bode_magnitude(model, points=40),
     lambda model: figures.step_responses(model, 30),   # linear axes, labels on the outer ones only
 ])
 def test_a_saved_figure_draws_what_savefig_draws(tmp_path, draw):

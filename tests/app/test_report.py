@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import moli
-from moli.app import figures
+from moli.app import figures, frequency_figures
 from moli.app.report import path_table, validation_caption, write_report
 from moli.method.search.greedy_path import StructureSearch, exhaustive
 from systems_util import random_system
@@ -145,7 +145,7 @@ def test_step_response_grid_matches_the_markov_sums(result):
 
 def test_magnitude_and_step_figures_shade_the_bands_of_models_with_a_covariance(result):
     model = result.model
-    ax = figures.bode_magnitude(model, points=50).axes[0]
+    ax = frequency_figures.bode_magnitude(model, points=50).axes[0]
     omega, gain = ax.lines[0].get_data()
     z = np.exp(1j * omega * model.Ts)
     expected = np.abs(model.C @ np.linalg.solve(z[:, None, None] * np.eye(model.n) - model.A, model.B) + model.D)
@@ -154,7 +154,7 @@ def test_magnitude_and_step_figures_shade_the_bands_of_models_with_a_covariance(
     assert omega[-1] == pytest.approx(np.pi / model.Ts) and len(ax.collections) == 1
     assert len(figures.step_responses(model, 20).axes[0].collections) == 1
     bare = moli.StateSpaceModel(model.A, model.B, model.C, model.D)
-    assert len(figures.bode_magnitude(bare, points=50).axes[0].collections) == 0
+    assert len(frequency_figures.bode_magnitude(bare, points=50).axes[0].collections) == 0
     assert len(figures.step_responses(bare, 20).axes[0].collections) == 0
 
 
@@ -180,9 +180,9 @@ def test_a_long_records_spectral_estimate_is_drawn_at_a_log_spaced_subset_of_its
     data = moli.example_data(N=20_000, seed=1)          # 1024 estimated frequencies
     model = moli.example_plant()
     estimate = moli.empirical_frequency_response(data)
-    assert len(estimate.omega) > figures.MAX_DRAWN_FREQUENCIES
-    omega, gain = figures.bode_magnitude(model, estimate).axes[0].lines[1].get_data()
-    assert len(omega) <= figures.MAX_DRAWN_FREQUENCIES
+    assert len(estimate.omega) > frequency_figures.MAX_DRAWN_FREQUENCIES
+    omega, gain = frequency_figures.bode_magnitude(model, estimate).axes[0].lines[1].get_data()
+    assert len(omega) <= frequency_figures.MAX_DRAWN_FREQUENCIES
     # the low decades, sparser than the log grid, keep every frequency; the top one is thinned
     np.testing.assert_array_equal(omega[:20], estimate.omega[:20])
     assert np.sum(omega > 0.1 * omega[-1]) < np.sum(estimate.omega > 0.1 * omega[-1]) / 2
@@ -192,5 +192,5 @@ def test_a_long_records_spectral_estimate_is_drawn_at_a_log_spaced_subset_of_its
     np.testing.assert_array_equal(np.abs(estimate.response[at, 0, 0]), gain)
     assert omega[0] == estimate.omega[0] and omega[-1] == estimate.omega[-1]
     # the same dots whether the figure is given the record or its estimate
-    from_record = figures.bode_magnitude(model, data).axes[0].lines[1].get_data()[0]
+    from_record = frequency_figures.bode_magnitude(model, data).axes[0].lines[1].get_data()[0]
     np.testing.assert_array_equal(from_record, omega)

@@ -7,7 +7,7 @@ import pytest
 import scipy.signal
 
 import moli
-from moli.app import figures
+from moli.app import frequency_figures
 
 from systems_util import random_system
 
@@ -101,14 +101,14 @@ def test_estimate_marks_unexcited_frequencies_and_checks_arguments():
 def test_bode_figure_draws_every_pair():
     data = moli.example_data(N=1500, seed=5)
     model = moli.example_plant()
-    fig = figures.bode_magnitude(model, data)
+    fig = frequency_figures.bode_magnitude(model, data)
     assert len(fig.axes) == model.p * model.m
     assert len(fig.axes[0].lines) == 2               # model and spectral estimate
 
 
 def test_singular_value_figure_is_the_svd_of_the_response():
     model = moli.example_plant()
-    fig = figures.singular_values(model, moli.example_data(N=1500, seed=5), points=40)
+    fig = frequency_figures.singular_values(model, moli.example_data(N=1500, seed=5), points=40)
     omega, largest = fig.axes[0].lines[0].get_data()
     # an independent computation of the largest gain over input directions
     H = np.array([model.C @ np.linalg.solve(np.exp(1j * w) * np.eye(model.n) - model.A, model.B) + model.D

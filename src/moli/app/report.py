@@ -15,7 +15,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from . import figures
+from . import figures, frequency_figures
 from .figure_files import save_figure
 from .._version import __version__
 from ..data.atomic_files import write_atomic
@@ -282,10 +282,10 @@ def write_report(
         "poles": (figures.poles(model), "Poles of the selected model and the unit circle."),
         "step_responses": (figures.step_responses(model, figures.settling_samples(model, result.estimation.N)),
                            "Unit-step responses from each input to each output (deviations)" + bands),
-        "magnitude": (figures.bode_magnitude(model, spectrum),
+        "magnitude": (frequency_figures.bode_magnitude(model, spectrum),
                       "Gain of each channel against frequency, up to the Nyquist frequency" + no_spectrum
                       + bands),
-        "singular_values": (figures.singular_values(model, spectrum),
+        "singular_values": (frequency_figures.singular_values(model, spectrum),
                             "Singular values of the frequency response (largest and smallest gain "
                             "over input directions) beside those of the spectral estimate"
                             + (f" (from the longest validation segment, {continuous.N} samples)."
