@@ -1,0 +1,56 @@
+"""Readers bounded by what they need: each hostile file is read under a 2 GiB address-space
+cap (tests/hostile_files.py) and gives the record it holds, or one moli error.
+
+Each bomb inflates to :data:`~hostile_files.CAP_BYTES` (2 GiB) of content the request
+does not need: a reader that inflated it would pass the cap on that alone.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from hostile_files import CAP_BYTES, bomb_mat, bomb_npz, read_capped, record  # noqa: E402
+
+
+def assert_the_record(read: dict, Ts: float | None = 0.5) -> None:
+    assert "error" not in read, read["error"]
+    u, y = record()
+    # JSON writes floats with repr's 17 digits: the round trip is exact
+    np.testing.assert_array_equal(read["u"], u)
+    np.testing.assert_array_equal(read["y"], y)
+    if Ts is not None:
+        assert read["Ts"] == Ts
+
+
+def test_an_npz_without_channels_named_reads_only_u_y_and_ts(tmp_path):
+    path = bomb_npz(tmp_path / "record.npz", CAP_BYTES)
+    assert path.stat().st_size < 4 << 20
+    assert_the_record(read_capped(path))
+
+
+def test_an_npz_with_channels_named_reads_only_those(tmp_path):
+    path = bomb_npz(tmp_path / "record.npz", CAP_BYTES, with_record=False)
+    assert_the_record(read_capped(path, ["u1"], ["y1"], 0.5))
+
+
+@pytest.mark.parametrize("as_struct", [False, True], ids=["array", "struct"])
+def test_a_mat_file_without_channels_named_reads_only_u_y_and_ts(tmp_path, as_struct):
+    path = bomb_mat(tmp_path / "record.mat", CAP_BYTES, as_struct=as_struct)
+    assert path.stat().st_size < 4 << 20
+    assert_the_record(read_capped(path))
+
+
+def test_an_unused_mat_struct_is_not_inflated_with_channels_named(tmp_path):
+    path = bomb_mat(tmp_path / "record.mat", CAP_BYTES, as_struct=True, with_record=False)
+    assert_the_record(read_capped(path, ["u1"], ["y1"], 0.5))
+
+
+def test_an_array_file_without_u_and_y_says_which_arrays_it_needs(tmp_path):
+    path = bomb_npz(tmp_path / "record.npz", CAP_BYTES, with_record=False)
+    said = read_capped(path)["error"]
+    assert "name the input and output columns" in said and "'junk'" in said and "'u1'" in said

@@ -1,0 +1,184 @@
+"""Files that are small on disk and huge once read, and a reader run under an address-space cap.
+
+Each bomb holds a record of a few hundred samples beside content that inflates to
+``size`` bytes of zeros. The zeros are deflated once per block and the compressed block
+repeated (each block starts after a full flush, so it references only itself), which
+makes a multi-GiB array in well under a second and a few MiB of disk.
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import os
+import struct
+import subprocess
+import sys
+import textwrap
+import zipfile
+import zlib
+from pathlib import Path
+from typing import Iterator
+
+import numpy as np
+
+import moli
+
+# The address space a capped reader may use, as the checks of docs/data.md state it.
+CAP_BYTES = 2 << 30
+# Zeros deflated at a time: one block's compression is the only real work.
+BLOCK = 1 << 24
+SAMPLES = 300
+
+
+def record() -> tuple[np.ndarray, np.ndarray]:
+    """A seeded SISO record (u, y) of :data:`SAMPLES` samples, as (N, 1) columns."""
+    u = np.random.default_rng(0).standard_normal((SAMPLES, 1))
+    y = moli.StateSpaceModel([[0.8]], [[0.5]], [[1.0]]).simulate(u)
+    return u, y
+
+
+def _deflated_zeros(size: int) -> Iterator[bytes]:
+    """Raw deflate blocks (none final) that inflate to ``size`` zero bytes."""
+    whole, rest = divmod(size, BLOCK)
+    for count, length in ((whole, BLOCK), (1, rest)):
+        if count and length:
+            packer = zlib.compressobj(9, zlib.DEFLATED, -15)
+            block = packer.compress(bytes(length)) + packer.flush(zlib.Z_FULL_FLUSH)
+            yield from (block for _ in range(count))
+
+
+def _crc32(prefix: bytes, zeros: int) -> int:
+    value = zlib.crc32(prefix)
+    block = bytes(BLOCK)
+    for start in range(0, zeros, BLOCK):
+        value = zlib.crc32(block[: zeros - start], value)
+    return value
+
+
+def _adler32(prefix: bytes, zeros: int) -> int:
+    """Adler-32 of ``prefix`` and ``zeros`` zero bytes: a zero adds nothing to the byte sum
+    and the byte sum to the running sum (RFC 1950)."""
+    value = zlib.adler32(prefix)
+    low, high = value & 0xFFFF, value >> 16
+    return ((high + zeros * low) % 65521) << 16 | low
+
+
+def _npy(array: np.ndarray) -> bytes:
+    buffer = io.BytesIO()
+    np.lib.format.write_array(buffer, np.asarray(array))
+    return buffer.getvalue()
+
+
+def bomb_npz(path: Path, size: int, with_record: bool = True) -> Path:
+    """An ``.npz`` with ``u``, ``y``, ``Ts`` (or, ``with_record=False``, ``u1``, ``y1``)
+    and an array ``junk`` that inflates to ``size`` bytes (under 4 GiB: no zip64 needed)."""
+    u, y = record()
+    arrays = {"u": u, "y": y, "Ts": np.float64(0.5)} if with_record else {"u1": u[:, 0], "y1": y[:, 0]}
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_STORED) as archive:
+        for name, array in arrays.items():
+            archive.writestr(f"{name}.npy", _npy(array))
+    header = io.BytesIO()
+    np.lib.format.write_array_header_1_0(header, {"descr": "<f8", "fortran_order": False,
+                                                  "shape": (size // 8,)})
+    prefix = header.getvalue()
+    _append_member(path, "junk.npy", prefix, size // 8 * 8)
+    return path
+
+
+def _append_member(path: Path, name: str, prefix: bytes, zeros: int) -> None:
+    """Append a deflated member ``prefix + zeros`` to a zip file, rewriting its directory."""
+    with zipfile.ZipFile(path) as archive:
+        entries = archive.infolist()
+        start = archive.start_dir
+    packer = zlib.compressobj(9, zlib.DEFLATED, -15)
+    body = [packer.compress(prefix) + packer.flush(zlib.Z_FULL_FLUSH), *_deflated_zeros(zeros), b"\x03\x00"]
+    packed = sum(map(len, body))
+    crc = _crc32(prefix, zeros)
+    raw = name.encode()
+    fields = struct.pack("<HHHHHIII", 20, 0, 8, 0, 0x21, crc, packed, len(prefix) + zeros)
+    with path.open("r+b") as handle:
+        handle.seek(start)
+        directory = handle.read()
+        handle.seek(start)
+        handle.truncate()
+        handle.write(b"PK\x03\x04" + fields + struct.pack("<HH", len(raw), 0) + raw)
+        for piece in body:
+            handle.write(piece)
+        central = directory[: directory.rindex(b"PK\x05\x06")]
+        offset = handle.tell()
+        handle.write(central)
+        handle.write(b"PK\x01\x02" + struct.pack("<H", 20) + fields
+                     + struct.pack("<HHHHHII", len(raw), 0, 0, 0, 0, 0, start) + raw)
+        size = handle.tell() - offset
+        handle.write(b"PK\x05\x06" + struct.pack("<HHHHIIH", 0, 0, len(entries) + 1, len(entries) + 1,
+                                                size, offset, 0))
+
+
+def _element(kind: int, data: bytes) -> bytes:
+    """A MATLAB level-5 data element: tag, data, padding to 8 bytes."""
+    return struct.pack("<II", kind, len(data)) + data + bytes(-len(data) % 8)
+
+
+def _matrix_head(class_id: int, dims: tuple[int, int], name: str, body_bytes: int) -> bytes:
+    """A miMATRIX element's tag and sub-elements up to its data, which take ``body_bytes``."""
+    parts = (_element(6, struct.pack("<II", class_id, 0)) + _element(5, struct.pack("<ii", *dims))
+             + _element(1, name.encode()))
+    return struct.pack("<II", 14, len(parts) + body_bytes) + parts
+
+
+def bomb_mat(path: Path, size: int, as_struct: bool = False, with_record: bool = True) -> Path:
+    """A ``.mat`` with ``u``, ``y``, ``Ts`` (or ``u1``, ``y1``) and a compressed variable
+    ``junk`` (a double column, or a struct whose field ``data`` is one) of ``size`` bytes."""
+    from scipy.io import savemat
+
+    u, y = record()
+    variables = {"u": u, "y": y, "Ts": 0.5} if with_record else {"u1": u, "y1": y}
+    savemat(path, variables, do_compression=True)
+    rows = size // 8
+    column = struct.pack("<II", 9, rows * 8)            # miDOUBLE tag; the zeros follow
+    if as_struct:
+        field = _matrix_head(6, (rows, 1), "", len(column) + rows * 8)
+        names = _element(5, struct.pack("<i", 32)) + _element(1, b"data".ljust(32, b"\0"))
+        prefix = _matrix_head(2, (1, 1), "junk", len(names) + len(field) + len(column) + rows * 8) + names + field
+    else:
+        prefix = _matrix_head(6, (rows, 1), "junk", len(column) + rows * 8)
+    prefix += column
+    packer = zlib.compressobj(9, zlib.DEFLATED, 15)
+    body = [packer.compress(prefix) + packer.flush(zlib.Z_FULL_FLUSH), *_deflated_zeros(rows * 8), b"\x03\x00",
+            struct.pack(">I", _adler32(prefix, rows * 8))]
+    with path.open("ab") as handle:
+        handle.write(struct.pack("<II", 15, sum(map(len, body))))
+        for piece in body:
+            handle.write(piece)
+    return path
+
+
+# Reads a file under the cap and prints the record (or the moli error) as one JSON line.
+CAPPED = textwrap.dedent("""
+    import json, resource, sys
+    resource.setrlimit(resource.RLIMIT_AS, ({cap}, {cap}))
+    import moli
+    arguments = json.loads(sys.argv[2])
+    try:
+        data = moli.read_data(sys.argv[1], *arguments)
+    except moli.MoliError as exc:
+        print(json.dumps({{"error": type(exc).__name__ + ": " + str(exc)}}))
+    else:
+        print(json.dumps({{"u": data.u.tolist(), "y": data.y.tolist(), "Ts": data.Ts}}))
+""")
+
+
+def read_capped(path: Path, *arguments: object, cap: int = CAP_BYTES) -> dict:
+    """``moli.read_data(path, *arguments)`` in a process whose address space is capped.
+
+    Returns the record's ``u``, ``y``, ``Ts``, or ``error``: a moli error's text; anything
+    else (a traceback, a kill) fails with the process's output.
+    """
+    done = subprocess.run(
+        [sys.executable, "-c", CAPPED.format(cap=cap), str(path), json.dumps(arguments)],
+        capture_output=True, text=True, timeout=300,
+        env={**os.environ, "OPENBLAS_NUM_THREADS": "1", "PYTHONWARNINGS": "ignore",
+             "PYTHONPATH": str(Path(moli.__file__).parents[1])})
+    assert done.returncode == 0 and done.stdout.strip(), (done.returncode, done.stdout[-2000:], done.stderr[-4000:])
+    return json.loads(done.stdout.strip().splitlines()[-1])
