@@ -182,3 +182,14 @@ def read_capped(path: Path, *arguments: object, cap: int = CAP_BYTES) -> dict:
              "PYTHONPATH": str(Path(moli.__file__).parents[1])})
     assert done.returncode == 0 and done.stdout.strip(), (done.returncode, done.stdout[-2000:], done.stderr[-4000:])
     return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+def zero_padded_csv(path: Path, size: int, encoding: str = "utf-8") -> Path:
+    """A CSV of the record followed by ``size`` zero bytes (a sparse file: nothing on disk),
+    as a logger's file looks after a crash."""
+    u, y = record()
+    text = "u1,y1\n" + "".join(f"{a!r},{b!r}\n" for a, b in zip(u[:, 0].tolist(), y[:, 0].tolist()))
+    with path.open("wb") as handle:
+        handle.write(text.encode(encoding))
+        handle.truncate(handle.tell() + size)
+    return path

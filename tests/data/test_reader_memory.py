@@ -13,8 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import moli
+from moli.data import text_files
+
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from hostile_files import CAP_BYTES, bomb_mat, bomb_npz, read_capped, record  # noqa: E402
+from hostile_files import CAP_BYTES, SAMPLES, bomb_mat, bomb_npz, read_capped, record, zero_padded_csv  # noqa: E402
 
 
 def assert_the_record(read: dict, Ts: float | None = 0.5) -> None:
@@ -54,3 +57,22 @@ def test_an_array_file_without_u_and_y_says_which_arrays_it_needs(tmp_path):
     path = bomb_npz(tmp_path / "record.npz", CAP_BYTES, with_record=False)
     said = read_capped(path)["error"]
     assert "name the input and output columns" in said and "'junk'" in said and "'u1'" in said
+
+
+@pytest.mark.parametrize("encoding", ["utf-8", "utf-16", "cp1252"])
+def test_a_text_file_padded_with_zero_bytes_is_one_error(tmp_path, encoding):
+    path = zero_padded_csv(tmp_path / "record.csv", 3 * CAP_BYTES // 2, encoding)
+    said = read_capped(path, ["u1"], ["y1"])["error"]
+    assert said.startswith(f"DataError: {path} is not a text table: zero bytes from byte ")
+    assert "padded after a crash" in said
+
+
+def test_a_long_legacy_file_is_told_from_its_beginning(tmp_path):
+    path = tmp_path / "record.csv"
+    u, y = record()
+    rows = "".join(f"{a!r};{b!r};ok\n" for a, b in zip(u[:, 0].tolist(), y[:, 0].tolist()))
+    copies = 2 * text_files.LEGACY_BYTES // len(rows) + 1   # past the part the encoding is told from
+    path.write_bytes(("u1;y1;état\n" + rows * copies).encode("cp1252"))
+    read = moli.read_data(path, ["u1"], ["y1"], 0.5)
+    np.testing.assert_array_equal(read.u[:SAMPLES], u)
+    assert read.N == SAMPLES * copies

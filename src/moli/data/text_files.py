@@ -33,6 +33,12 @@ BOMS = (
 # The encoding detector reads this much of a file; a plant record's header and first
 # rows are text enough, and the detector's time grows with its input.
 DETECT_BYTES = 1 << 18
+# Without a byte-order mark or valid UTF-8, the encoding is told from this much of the
+# file's beginning: a legacy code page's letters show in a logger's header and first rows.
+LEGACY_BYTES = 1 << 24
+# This many zero bytes in a row are no text in any encoding (UTF-32 has at most 5 between
+# two characters other than U+0000): padding left by a crash, or binary data.
+ZERO_RUN = b"\x00" * 8
 # The sniffed lines are read whole up to this many bytes in all.
 SNIFF_BYTES = 1 << 26
 # Bytes read at a time when checking that a file is UTF-8.
@@ -89,11 +95,11 @@ def check_text_options(delimiter: object, decimal: object, encoding: object) -> 
     return delimiter, decimal, encoding  # type: ignore[return-value]
 
 
-def _sample(raw: bytes) -> bytes:
-    """The head of ``raw`` for the detector, cut after a line end (and its UTF-16 zero byte)."""
-    if len(raw) <= DETECT_BYTES:
+def _sample(raw: bytes, limit: int = DETECT_BYTES) -> bytes:
+    """The head of ``raw`` up to ``limit`` bytes, cut after a line end (and its UTF-16 zero byte)."""
+    if len(raw) <= limit:
         return raw
-    end = raw.rfind(b"\n", 0, DETECT_BYTES) + 1 or DETECT_BYTES
+    end = raw.rfind(b"\n", 0, limit) + 1 or limit
     return raw[: end + 1] if raw[end:end + 1] == b"\x00" else raw[:end]
 
 
@@ -177,32 +183,47 @@ def _decode(raw: bytes, encoding: str, path: Path, given: bool) -> str:
         ) from None
 
 
-def _plain_utf8(path: Path) -> bool:
-    """True when the whole file is UTF-8 without zero bytes, checked block by block."""
+def _scan(path: Path) -> bool:
+    """True when the whole file is UTF-8 without zero bytes, read block by block.
+
+    A run of :data:`ZERO_RUN` zero bytes anywhere is an error here, before any decoding
+    or parsing: a file padded with zeros would otherwise be taken for UTF-16 and read
+    whole, or parsed as one endless line.
+    """
     decoder = codecs.getincrementaldecoder("utf-8")()
+    plain, done, tail = True, 0, b""
+    with path.open("rb") as handle:
+        for block in iter(lambda: handle.read(BLOCK_BYTES), b""):
+            joined = tail + block
+            found = joined.find(ZERO_RUN)
+            if found >= 0:
+                raise DataError(
+                    f"{path} is not a text table: zero bytes from byte {done - len(tail) + found} on, "
+                    "as a file padded after a crash or binary data holds; cut the file before them, "
+                    "or is it another format with the wrong suffix?")
+            tail, done = joined[1 - len(ZERO_RUN):], done + len(block)
+            plain = plain and b"\x00" not in block and _continues(decoder, block)
+    return plain and _continues(decoder, b"", final=True)
+
+
+def _continues(decoder: codecs.IncrementalDecoder, block: bytes, final: bool = False) -> bool:
     try:
-        with path.open("rb") as handle:
-            for block in iter(lambda: handle.read(BLOCK_BYTES), b""):
-                if b"\x00" in block:
-                    return False
-                decoder.decode(block)
-        decoder.decode(b"", final=True)
+        decoder.decode(block, final)
     except UnicodeDecodeError:
         return False
     return True
 
 
-def _file_encoding(path: Path, head: bytes) -> str:
-    """:func:`detect_encoding` of the file, without holding a UTF-8 file in memory.
-
-    Legacy code pages are told apart on the whole file, as :func:`detect_encoding` does;
-    such files come from older loggers and are short.
-    """
+def _file_encoding(path: Path, head: bytes, plain: bool) -> str:
+    """:func:`detect_encoding` of the file (``plain``: it is UTF-8 without zero bytes) without
+    holding it in memory: a file that is not UTF-8 is told from its first
+    :data:`LEGACY_BYTES` (cut after a line)."""
     if any(head.startswith(bom) for bom, _ in BOMS):
         return detect_encoding(head)
-    if _plain_utf8(path):
+    if plain:
         return "utf-8"
-    return detect_encoding(path.read_bytes())
+    with path.open("rb") as handle:
+        return detect_encoding(_sample(handle.read(LEGACY_BYTES + 1), LEGACY_BYTES))
 
 
 def _head_text(head: bytes, encoding: str, path: Path, given: bool) -> str:
@@ -308,10 +329,11 @@ def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: 
     :data:`~moli.data.frame_files.CHUNK_ROWS` rows, so no more than one chunk's text and
     cells are held besides the columns kept.
     """
+    plain = _scan(path)
     with path.open("rb") as handle:
         head_bytes = handle.read(DETECT_BYTES)
         sniffed, ended = _sniffed_bytes(handle, head_bytes)
-    chosen = encoding or _file_encoding(path, head_bytes)
+    chosen = encoding or _file_encoding(path, head_bytes, plain)
     text = _head_text(sniffed, chosen, path, encoding is not None)
     if not ended and "\n" in text:
         text = text[: text.rindex("\n")]  # a line cut short would split into fewer fields
