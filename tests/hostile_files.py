@@ -38,22 +38,22 @@ def record() -> tuple[np.ndarray, np.ndarray]:
     return u, y
 
 
-def _deflated_zeros(size: int) -> Iterator[bytes]:
-    """Raw deflate blocks (none final) that inflate to ``size`` zero bytes."""
+def _deflated(size: int, fill: bytes = b"\0") -> Iterator[bytes]:
+    """Raw deflate blocks (none final) that inflate to ``size`` bytes ``fill``."""
     whole, rest = divmod(size, BLOCK)
     for count, length in ((whole, BLOCK), (1, rest)):
         if count and length:
             packer = zlib.compressobj(9, zlib.DEFLATED, -15)
-            block = packer.compress(bytes(length)) + packer.flush(zlib.Z_FULL_FLUSH)
+            block = packer.compress(fill * length) + packer.flush(zlib.Z_FULL_FLUSH)
             yield from (block for _ in range(count))
 
 
-def _crc32(prefix: bytes, zeros: int) -> int:
+def _crc32(prefix: bytes, size: int, fill: bytes = b"\0", suffix: bytes = b"") -> int:
     value = zlib.crc32(prefix)
-    block = bytes(BLOCK)
-    for start in range(0, zeros, BLOCK):
-        value = zlib.crc32(block[: zeros - start], value)
-    return value
+    block = fill * BLOCK
+    for start in range(0, size, BLOCK):
+        value = zlib.crc32(block[: size - start], value)
+    return zlib.crc32(suffix, value)
 
 
 def _adler32(prefix: bytes, zeros: int) -> int:
@@ -81,22 +81,23 @@ def bomb_npz(path: Path, size: int, with_record: bool = True) -> Path:
     header = io.BytesIO()
     np.lib.format.write_array_header_1_0(header, {"descr": "<f8", "fortran_order": False,
                                                   "shape": (size // 8,)})
-    prefix = header.getvalue()
-    _append_member(path, "junk.npy", prefix, size // 8 * 8)
+    _append_member(path, "junk.npy", header.getvalue(), size // 8 * 8)
     return path
 
 
-def _append_member(path: Path, name: str, prefix: bytes, zeros: int) -> None:
-    """Append a deflated member ``prefix + zeros`` to a zip file, rewriting its directory."""
+def _append_member(path: Path, name: str, prefix: bytes, size: int, fill: bytes = b"\0",
+                   suffix: bytes = b"") -> None:
+    """Append a deflated member ``prefix + fill * size + suffix`` to a zip file (under 4 GiB
+    in all: no zip64), rewriting its central directory."""
     with zipfile.ZipFile(path) as archive:
         entries = archive.infolist()
         start = archive.start_dir
-    packer = zlib.compressobj(9, zlib.DEFLATED, -15)
-    body = [packer.compress(prefix) + packer.flush(zlib.Z_FULL_FLUSH), *_deflated_zeros(zeros), b"\x03\x00"]
-    packed = sum(map(len, body))
-    crc = _crc32(prefix, zeros)
+    packer, closer = zlib.compressobj(9, zlib.DEFLATED, -15), zlib.compressobj(9, zlib.DEFLATED, -15)
+    body = [packer.compress(prefix) + packer.flush(zlib.Z_FULL_FLUSH), *_deflated(size, fill),
+            closer.compress(suffix) + closer.flush()]
     raw = name.encode()
-    fields = struct.pack("<HHHHHIII", 20, 0, 8, 0, 0x21, crc, packed, len(prefix) + zeros)
+    fields = struct.pack("<HHHHHIII", 20, 0, 8, 0, 0x21, _crc32(prefix, size, fill, suffix),
+                         sum(map(len, body)), len(prefix) + size + len(suffix))
     with path.open("r+b") as handle:
         handle.seek(start)
         directory = handle.read()
@@ -105,14 +106,12 @@ def _append_member(path: Path, name: str, prefix: bytes, zeros: int) -> None:
         handle.write(b"PK\x03\x04" + fields + struct.pack("<HH", len(raw), 0) + raw)
         for piece in body:
             handle.write(piece)
-        central = directory[: directory.rindex(b"PK\x05\x06")]
         offset = handle.tell()
-        handle.write(central)
+        handle.write(directory[: directory.rindex(b"PK\x05\x06")])
         handle.write(b"PK\x01\x02" + struct.pack("<H", 20) + fields
                      + struct.pack("<HHHHHII", len(raw), 0, 0, 0, 0, 0, start) + raw)
-        size = handle.tell() - offset
         handle.write(b"PK\x05\x06" + struct.pack("<HHHHIIH", 0, 0, len(entries) + 1, len(entries) + 1,
-                                                size, offset, 0))
+                                                handle.tell() - offset, offset, 0))
 
 
 def _element(kind: int, data: bytes) -> bytes:
@@ -145,12 +144,57 @@ def bomb_mat(path: Path, size: int, as_struct: bool = False, with_record: bool =
         prefix = _matrix_head(6, (rows, 1), "junk", len(column) + rows * 8)
     prefix += column
     packer = zlib.compressobj(9, zlib.DEFLATED, 15)
-    body = [packer.compress(prefix) + packer.flush(zlib.Z_FULL_FLUSH), *_deflated_zeros(rows * 8), b"\x03\x00",
+    body = [packer.compress(prefix) + packer.flush(zlib.Z_FULL_FLUSH), *_deflated(rows * 8), b"\x03\x00",
             struct.pack(">I", _adler32(prefix, rows * 8))]
     with path.open("ab") as handle:
         handle.write(struct.pack("<II", 15, sum(map(len, body))))
         for piece in body:
             handle.write(piece)
+    return path
+
+
+SHEET = "xl/worksheets/sheet1.xml"
+MAIN = "http://schemas.openxmlformats.org/spreadsheetml/2006/main"
+
+
+def _cell(reference: str, value: object) -> str:
+    if isinstance(value, int):   # an index into the shared strings
+        return f'<c r="{reference}" t="s"><v>{value}</v></c>'
+    return f'<c r="{reference}"><v>{value!r}</v></c>'
+
+
+def bomb_xlsx(path: Path, size: int, shared: bool) -> Path:
+    """A workbook of columns ``u1``, ``y1`` and ``note``, whose note on the first data row
+    is ``size`` letters: in the sheet itself, or (``shared``) in the workbook's shared
+    strings, where the header's names are too."""
+    from openpyxl import Workbook
+
+    Workbook().save(path)   # the workbook's other parts, as openpyxl writes them
+    with zipfile.ZipFile(path) as base:
+        parts = {item.filename: base.read(item.filename) for item in base.infolist()}
+    u, y = record()
+    header = "".join(_cell(f"{c}1", k + 1 if shared else 0) for k, c in enumerate("ABC"))
+    rows = [f'<row r="{k + 2}">{_cell(f"A{k + 2}", float(a))}{_cell(f"B{k + 2}", float(b))}' for k, (a, b)
+            in enumerate(zip(u[:, 0], y[:, 0]))]
+    sheet_head = f'<worksheet xmlns="{MAIN}"><sheetData><row r="1">{header}</row>'
+    sheet_tail = "</row>".join(rows[1:]) + "</row></sheetData></worksheet>"
+    names = "".join(f"<si><t>{name}</t></si>" for name in ("u1", "y1", "note"))
+    if shared:
+        parts[SHEET] = (sheet_head + rows[0] + '<c r="C2" t="s"><v>0</v></c></row>' + sheet_tail).encode()
+        parts["[Content_Types].xml"] = parts["[Content_Types].xml"].replace(
+            b"</Types>", b'<Override PartName="/xl/sharedStrings.xml" ContentType="application/'
+            b'vnd.openxmlformats-officedocument.spreadsheetml.sharedStrings+xml"/></Types>')
+        member = ("xl/sharedStrings.xml", f'<sst xmlns="{MAIN}"><si><t>', f"</t></si>{names}</sst>")
+    else:
+        header = "".join(f'<c r="{c}1" t="inlineStr"><is><t>{name}</t></is></c>'
+                         for c, name in zip("ABC", ("u1", "y1", "note")))
+        sheet_head = f'<worksheet xmlns="{MAIN}"><sheetData><row r="1">{header}</row>'
+        del parts[SHEET]
+        member = (SHEET, sheet_head + rows[0] + '<c r="C2" t="inlineStr"><is><t>', "</t></is></c></row>" + sheet_tail)
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as archive:
+        for name, content in parts.items():
+            archive.writestr(name, content)
+    _append_member(path, member[0], member[1].encode(), size, b"x", member[2].encode())
     return path
 
 

@@ -17,7 +17,9 @@ import moli
 from moli.data import text_files
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from hostile_files import CAP_BYTES, SAMPLES, bomb_mat, bomb_npz, read_capped, record, zero_padded_csv  # noqa: E402
+from hostile_files import (  # noqa: E402
+    CAP_BYTES, SAMPLES, bomb_mat, bomb_npz, bomb_xlsx, read_capped, record, zero_padded_csv,
+)
 
 
 def assert_the_record(read: dict, Ts: float | None = 0.5) -> None:
@@ -76,3 +78,23 @@ def test_a_long_legacy_file_is_told_from_its_beginning(tmp_path):
     read = moli.read_data(path, ["u1"], ["y1"], 0.5)
     np.testing.assert_array_equal(read.u[:SAMPLES], u)
     assert read.N == SAMPLES * copies
+
+
+@pytest.mark.parametrize("shared", [False, True], ids=["in the sheet", "shared"])
+def test_a_huge_text_in_a_column_not_read_costs_nothing(tmp_path, shared):
+    path = bomb_xlsx(tmp_path / "record.xlsx", CAP_BYTES // 2, shared)
+    assert path.stat().st_size < 4 << 20
+    assert_the_record(read_capped(path, ["u1"], ["y1"], 0.5))
+
+
+def test_without_channels_named_a_table_reads_only_its_header(tmp_path, monkeypatch):
+    from openpyxl.worksheet import _reader
+
+    path = bomb_xlsx(tmp_path / "record.xlsx", 1000, shared=True)
+    converted = []
+    parse_cell = _reader.WorkSheetParser.parse_cell
+    monkeypatch.setattr(_reader.WorkSheetParser, "parse_cell",
+                        lambda self, element: converted.append(element.get("r")) or parse_cell(self, element))
+    with pytest.raises(moli.DataError, match="name the input and output columns .*'u1', 'y1', 'note'"):
+        moli.read_data(path)
+    assert converted == ["A1", "B1", "C1"]

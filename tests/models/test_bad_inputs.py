@@ -122,9 +122,9 @@ SHARED = {
     "offset of the wrong length": ("y_offset", [0.0], "y_offset must have 3 entries"),
     "NaN offset": ("u_offset", [0.0, float("nan"), 0.0], "u_offset must be finite"),
     "infinite offset": ("y_offset", [float("inf"), 0.0, 0.0], "y_offset must be finite"),
-    "names as one string": ("output_names", "abc", "output_names must be a list of 3 distinct names"),
+    "names as one string": ("output_names", "abc", "output_names must be a list of 3 names (distinct strings)"),
     "duplicate names": ("input_names", ["u1", "u1", "u2"], "input_names must be distinct"),
-    "numbers as names": ("output_names", [1, 2, 3], "output_names must be a list of 3 distinct names"),
+    "numbers as names": ("output_names", [1, 2, 3], "output_names must be a list of 3 names (distinct strings)"),
     "names in a dict": ("input_names", {"u1": 1, "u2": 2, "u3": 3}, "input_names must be a list of 3"),
 }
 DELAYS = {

@@ -131,7 +131,7 @@ def _npz_shape(archive: object, name: str) -> tuple[int, ...]:
         return tuple(header(member)[0])
 
 
-def read_npz(path: Path, needed: Needed = lambda names: None) -> Table:
+def read_npz(path: Path, needed: Needed) -> Table:
     """The arrays of a NumPy ``.npz`` archive (no pickled objects).
 
     Only the arrays ``needed`` asks for are inflated (see :func:`_wanted`): an
@@ -194,7 +194,7 @@ def iddata_table(name: str, struct: object, source: str) -> Table:
     return Table(columns, source, _sample, Ts, inputs, outputs)
 
 
-def read_mat(path: Path, needed: Needed = lambda names: None) -> Table:
+def read_mat(path: Path, needed: Needed) -> Table:
     """The variables of a MATLAB ``.mat`` file (v4 to v7), or the iddata struct it holds.
 
     Only the variables ``needed`` asks for (see :func:`_wanted`) are read, and structs

@@ -110,12 +110,15 @@ def check_header(names: Sequence[object], source: str) -> None:
 
 
 def needed_columns(request: Request, names: Sequence[str]) -> set[str] | None:
-    """The columns of ``names`` that :func:`record` reads for ``request``; None: every one.
+    """The columns of ``names`` that :func:`record` reads for ``request``; None when the
+    request does not name both inputs and outputs.
 
-    A reader that can skip columns parses only these: the channels, the time column
-    named or the candidates for one (time-like names, the first column) and the period
-    columns (moli.data.clocks), so a long record's comment or status column never
-    becomes text in memory.
+    A reader parses only these: the channels, the time column named or the candidates
+    for one (time-like names, the first column) and the period columns
+    (moli.data.clocks), so a long record's comment or status column never becomes text
+    in memory. None leaves the channels to the file: ``u``/``y`` arrays or an iddata
+    (moli.data.array_files); a table, which cannot mark them, then reads no column, and
+    the error lists its columns.
     """
     if request.inputs is None or request.outputs is None:
         return None

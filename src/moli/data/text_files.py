@@ -321,11 +321,12 @@ def _sniffed_bytes(handle: BinaryIO, head: bytes) -> tuple[bytes, bool]:
 
 
 def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: str | None,
-              needed: Callable[[list[str]], set[str] | None] = lambda names: None) -> Table:
+              needed: Callable[[list[str]], set[str] | None]) -> Table:
     """The columns of a text table, every cell located by its line in the file.
 
-    ``needed(names)`` says which of the header's (stripped) column names to keep, None for
-    all; the table's ``names`` lists them all. The file is parsed in chunks of
+    ``needed(names)`` says which of the header's (stripped) column names to keep; None (no
+    channels named, which a text table cannot mark) keeps none, so only the header is
+    parsed. The table's ``names`` lists them all. The file is parsed in chunks of
     :data:`~moli.data.frame_files.CHUNK_ROWS` rows, so no more than one chunk's text and
     cells are held besides the columns kept.
     """
@@ -352,9 +353,11 @@ def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: 
         header = [str(name) for name in pd.read_csv(path, nrows=0, **options).columns]
         check_header(header, str(path))
         names = list(dict.fromkeys(name.strip() for name in header))
-        kept = needed(names)
-        with pd.read_csv(path, chunksize=frame_files.CHUNK_ROWS, **options) as reader:
-            columns = join_chunks(reader, str(path), [n for n in names if kept is None or n in kept])
+        kept = needed(names) or set()
+        columns = {}
+        if kept & set(names):
+            with pd.read_csv(path, chunksize=frame_files.CHUNK_ROWS, **options) as reader:
+                columns = join_chunks(reader, str(path), [n for n in names if n in kept])
     except UnicodeDecodeError:
         _decode(path.read_bytes(), chosen, path, encoding is not None)  # raises, naming the line
         raise

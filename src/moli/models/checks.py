@@ -45,7 +45,7 @@ def stored_names(what: str, value: object, count: int) -> tuple[str, ...]:
     spoiled field, not a name.
     """
     if not isinstance(value, list) or not all(isinstance(name, str) for name in value):
-        raise DataError(f"{what} must be a list of {count} distinct names (strings), got {_quoted(value)}")
+        raise DataError(f"{what} must be a list of {count} names (distinct strings), got {_quoted(value)}")
     return name_list(what, value, count)
 
 
