@@ -65,8 +65,8 @@ def test_an_array_file_without_u_and_y_says_which_arrays_it_needs(tmp_path):
 def test_a_text_file_padded_with_zero_bytes_is_one_error(tmp_path, encoding):
     path = zero_padded_csv(tmp_path / "record.csv", 3 * CAP_BYTES // 2, encoding)
     said = read_capped(path, ["u1"], ["y1"])["error"]
-    assert said.startswith(f"DataError: {path} is not a text table: zero bytes from byte ")
-    assert "padded after a crash" in said
+    assert said.startswith(f"DataError: {path} is not a text table: it holds zero bytes from byte ")
+    assert "padded with zeros after a crash" in said
 
 
 def test_a_long_legacy_file_is_told_from_its_beginning(tmp_path):

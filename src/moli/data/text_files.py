@@ -198,9 +198,9 @@ def _scan(path: Path) -> bool:
             found = joined.find(ZERO_RUN)
             if found >= 0:
                 raise DataError(
-                    f"{path} is not a text table: zero bytes from byte {done - len(tail) + found} on, "
-                    "as a file padded after a crash or binary data holds; cut the file before them, "
-                    "or is it another format with the wrong suffix?")
+                    f"{path} is not a text table: it holds zero bytes from byte {done - len(tail) + found} "
+                    "on (a file padded with zeros after a crash, or binary data); cut the file before "
+                    "them, or is it another format with the wrong suffix?")
             tail, done = joined[1 - len(ZERO_RUN):], done + len(block)
             plain = plain and b"\x00" not in block and _continues(decoder, block)
     return plain and _continues(decoder, b"", final=True)
