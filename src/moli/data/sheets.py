@@ -68,7 +68,10 @@ class _SheetCells(_Target):
     ``header(first row's cells)`` returns."""
 
     def __init__(self, header: Callable[[list[tuple[int, Element]]], set[int]]) -> None:
+        from openpyxl.utils.cell import column_index_from_string
+
         self.header = header
+        self._index = column_index_from_string
         self.columns: set[int] | None = None
         self.rows: list[tuple[str | None, list[tuple[int, Element]], bool]] = []
         self._row: tuple[str | None, list[tuple[int, Element]]] | None = None
@@ -85,10 +88,8 @@ class _SheetCells(_Target):
         elif tag == MAIN + "row":
             self._row, self._filled, self._column = (attrib.get("r"), []), False, -1
         elif tag == MAIN + "c" and self._row is not None:
-            from openpyxl.utils.cell import column_index_from_string
-
             coordinate = attrib.get("r")
-            self._column = column_index_from_string(coordinate.rstrip(_DIGITS)) - 1 if coordinate else self._column + 1
+            self._column = self._index(coordinate.rstrip(_DIGITS)) - 1 if coordinate else self._column + 1
             if self.columns is None or self._column in self.columns:
                 self._cell, self._depth = TreeBuilder(), 1
                 self._cell.start(tag, attrib)

@@ -36,8 +36,9 @@ DETECT_BYTES = 1 << 18
 # Without a byte-order mark or valid UTF-8, the encoding is told from this much of the
 # file's beginning: a legacy code page's letters show in a logger's header and first rows.
 LEGACY_BYTES = 1 << 24
-# This many zero bytes in a row are no text in any encoding (UTF-32 has at most 5 between
-# two characters other than U+0000): padding left by a crash, or binary data.
+# This many zero bytes in a row are no text in any encoding: without the character U+0000,
+# UTF-8, -16 and -32 have at most 5 in a row (UTF-32: the 3 high bytes of one character
+# and the 2 low bytes of the next). Padding left by a crash, or binary data.
 ZERO_RUN = b"\x00" * 8
 # The sniffed lines are read whole up to this many bytes in all.
 SNIFF_BYTES = 1 << 26
