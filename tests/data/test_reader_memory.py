@@ -98,3 +98,17 @@ def test_without_channels_named_a_table_reads_only_its_header(tmp_path, monkeypa
     with pytest.raises(moli.DataError, match="name the input and output columns .*'u1', 'y1', 'note'"):
         moli.read_data(path)
     assert converted == ["A1", "B1", "C1"]
+
+
+def test_a_legacy_letter_past_the_first_16_mib_is_told_from_its_own_lines(tmp_path):
+    path = tmp_path / "record.csv"
+    u, y = record()
+    rows = "".join(f"{a!r};{b!r};ok\n" for a, b in zip(u[:, 0].tolist(), y[:, 0].tolist()))
+    copies = 2 * text_files.LEGACY_BYTES // len(rows) + 1   # all ASCII up to twice the part read first
+    path.write_bytes(("u1;y1;note\n" + rows * copies + "0.0;0.0;température élevée\n").encode("cp1252"))
+    read = moli.read_data(path, ["u1"], ["y1"], 0.5)
+    assert read.N == SAMPLES * copies + 1 and read.u[-1, 0] == 0.0
+    line = 1 + SAMPLES * copies + 1   # the header, the rows, then the one with accents
+    # the byte that does not decode is found block by block, its line counted across blocks
+    with pytest.raises(moli.DataError, match=rf"is not utf-8 text: byte 0xe9 on line {line} does not decode"):
+        moli.read_data(path, ["u1"], ["y1"], 0.5, encoding="utf-8")

@@ -170,29 +170,39 @@ def detect_encoding(raw: bytes) -> str:
     return western if best is None else best.encoding
 
 
-def _decode(raw: bytes, encoding: str, path: Path, given: bool) -> str:
-    """``raw`` as text, or the error naming the line of the first byte that does not decode."""
-    try:
-        return raw.decode(encoding)
-    except UnicodeDecodeError as exc:
-        line = raw[: exc.start].count(b"\n") + 1
-        how = "" if given else " (detected)"
-        raise DataError(
-            f"{path} is not {encoding}{how} text: byte 0x{raw[exc.start]:02x} on line {line} "
-            "does not decode; give the file's encoding (encoding= or --encoding), e.g. utf-8, "
-            "utf-16, cp1252"
-        ) from None
+def _undecodable(path: Path, encoding: str, given: bool) -> DataError:
+    """The error naming the line of the file's first byte that does not decode as
+    ``encoding``, found block by block (the file is never held whole)."""
+    decoder = codecs.getincrementaldecoder(encoding)()
+    lines, bad = 1, None
+    with path.open("rb") as handle:
+        for block in iter(lambda: handle.read(BLOCK_BYTES), b""):
+            held = bytes(getattr(decoder, "buffer", b""))  # bytes of a character cut by the last block
+            try:
+                decoder.decode(block)
+            except UnicodeDecodeError as exc:
+                data = held + block
+                lines, bad = lines - held.count(b"\n") + data[: exc.start].count(b"\n"), data[exc.start]
+                break
+            lines += block.count(b"\n")
+    how = "" if given else " (detected)"
+    shown = f"byte 0x{bad:02x}" if bad is not None else "its last bytes, a character cut short,"
+    return DataError(
+        f"{path} is not {encoding}{how} text: {shown} on line {lines} does not decode; give the "
+        "file's encoding (encoding= or --encoding), e.g. utf-8, utf-16, cp1252"
+    )
 
 
-def _scan(path: Path) -> bool:
-    """True when the whole file is UTF-8 without zero bytes, read block by block.
+def _scan(path: Path) -> int | None:
+    """The offset of the file's first byte that is not UTF-8 text (a zero byte counts),
+    None when there is none; the file is read block by block.
 
     A run of :data:`ZERO_RUN` zero bytes anywhere is an error here, before any decoding
     or parsing: a file padded with zeros would otherwise be taken for UTF-16 and read
     whole, or parsed as one endless line.
     """
     decoder = codecs.getincrementaldecoder("utf-8")()
-    plain, done, tail = True, 0, b""
+    first, done, tail = None, 0, b""
     with path.open("rb") as handle:
         for block in iter(lambda: handle.read(BLOCK_BYTES), b""):
             joined = tail + block
@@ -202,29 +212,39 @@ def _scan(path: Path) -> bool:
                     f"{path} is not a text table: it holds zero bytes from byte {done - len(tail) + found} "
                     "on (a file padded with zeros after a crash, or binary data); cut the file before "
                     "them, or is it another format with the wrong suffix?")
+            if first is None:
+                first = _not_utf8(decoder, block, done)
             tail, done = joined[1 - len(ZERO_RUN):], done + len(block)
-            plain = plain and b"\x00" not in block and _continues(decoder, block)
-    return plain and _continues(decoder, b"", final=True)
+    return _not_utf8(decoder, b"", done, final=True) if first is None else first
 
 
-def _continues(decoder: codecs.IncrementalDecoder, block: bytes, final: bool = False) -> bool:
+def _not_utf8(decoder: codecs.BufferedIncrementalDecoder, block: bytes, done: int,
+              final: bool = False) -> int | None:
+    """Where in the file (``block`` starts at byte ``done``) UTF-8 stops, or None."""
+    held = len(decoder.buffer)  # bytes of a character the last block cut
+    zero = block.find(b"\x00")
     try:
-        decoder.decode(block, final)
-    except UnicodeDecodeError:
-        return False
-    return True
+        decoder.decode(block if zero < 0 else block[:zero], final)
+    except UnicodeDecodeError as exc:
+        return done - held + exc.start
+    return None if zero < 0 else done + zero
 
 
-def _file_encoding(path: Path, head: bytes, plain: bool) -> str:
-    """:func:`detect_encoding` of the file (``plain``: it is UTF-8 without zero bytes) without
-    holding it in memory: a file that is not UTF-8 is told from its first
-    :data:`LEGACY_BYTES` (cut after a line)."""
+def _file_encoding(path: Path, head: bytes, first: int | None) -> str:
+    """:func:`detect_encoding` of the file (``first``: where UTF-8 stops, from :func:`_scan`)
+    without holding it in memory: a file that is not UTF-8 is told from its first
+    :data:`LEGACY_BYTES` and, when ``first`` lies beyond them, the lines around it."""
     if any(head.startswith(bom) for bom, _ in BOMS):
         return detect_encoding(head)
-    if plain:
+    if first is None:
         return "utf-8"
     with path.open("rb") as handle:
-        return detect_encoding(_sample(handle.read(LEGACY_BYTES + 1), LEGACY_BYTES))
+        raw = _sample(handle.read(LEGACY_BYTES + 1), LEGACY_BYTES)
+        if first >= len(raw):
+            handle.seek(max(first - DETECT_BYTES, 0))
+            window = handle.read(2 * DETECT_BYTES)
+            raw += window[window.find(b"\n") + 1: window.rfind(b"\n") + 1 or None]
+    return detect_encoding(raw)
 
 
 def _head_text(head: bytes, encoding: str, path: Path, given: bool) -> str:
@@ -233,8 +253,7 @@ def _head_text(head: bytes, encoding: str, path: Path, given: bool) -> str:
     try:
         text = codecs.getincrementaldecoder(encoding)().decode(head)
     except UnicodeDecodeError:
-        _decode(path.read_bytes(), encoding, path, given)  # raises, naming the line
-        raise
+        raise _undecodable(path, encoding, given) from None
     bad = CONTROL.search(text)
     if bad:
         line = text.count("\n", 0, bad.start()) + 1
@@ -331,11 +350,11 @@ def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: 
     :data:`~moli.data.frame_files.CHUNK_ROWS` rows, so no more than one chunk's text and
     cells are held besides the columns kept.
     """
-    plain = _scan(path)
+    first = _scan(path)
     with path.open("rb") as handle:
         head_bytes = handle.read(DETECT_BYTES)
         sniffed, ended = _sniffed_bytes(handle, head_bytes)
-    chosen = encoding or _file_encoding(path, head_bytes, plain)
+    chosen = encoding or _file_encoding(path, head_bytes, first)
     text = _head_text(sniffed, chosen, path, encoding is not None)
     if not ended and "\n" in text:
         text = text[: text.rindex("\n")]  # a line cut short would split into fewer fields
@@ -360,8 +379,7 @@ def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: 
             with pd.read_csv(path, chunksize=frame_files.CHUNK_ROWS, **options) as reader:
                 columns = join_chunks(reader, str(path), [n for n in names if n in kept])
     except UnicodeDecodeError:
-        _decode(path.read_bytes(), chosen, path, encoding is not None)  # raises, naming the line
-        raise
+        raise _undecodable(path, chosen, encoding is not None) from None
     except ValueError as exc:  # pandas' ParserError and EmptyDataError are ValueErrors
         raise DataError(f"cannot read {path} as a table with {_shown(delimiter)} between "
                         f"columns: {exc}") from None
