@@ -55,10 +55,14 @@ def test_an_unused_mat_struct_is_not_inflated_with_channels_named(tmp_path):
     assert_the_record(read_capped(path, ["u1"], ["y1"], 0.5))
 
 
-def test_an_array_file_without_u_and_y_says_which_arrays_it_needs(tmp_path):
-    path = bomb_npz(tmp_path / "record.npz", CAP_BYTES, with_record=False)
+@pytest.mark.parametrize("bomb", [bomb_npz, bomb_mat], ids=["npz", "mat"])
+def test_an_array_file_without_u_and_y_says_which_arrays_it_needs(tmp_path, bomb):
+    path = bomb(tmp_path / f"record.{bomb.__name__[-3:]}", CAP_BYTES, with_record=False)
     said = read_capped(path)["error"]
-    assert "name the input and output columns" in said and "'junk'" in said and "'u1'" in said
+    assert said.startswith(f"DataError: name the input and output columns of {path} (inputs=, outputs=; "
+                           "--inputs, --outputs), or store them as 2-D arrays u and y, one row per sample; "
+                           "columns: ")
+    assert {"'junk'", "'u1'", "'y1'"} <= set(said.split("columns: ")[1].split(", "))
 
 
 @pytest.mark.parametrize("encoding", ["utf-8", "utf-16", "cp1252"])

@@ -21,7 +21,7 @@ import numpy as np
 
 from .cells import parsing
 from .clocks import looks_like_time, period_kind
-from .tables import Table
+from .tables import LISTED_COLUMNS, Table
 from ..errors import DataError
 
 __all__ = ["read_npz", "read_mat"]
@@ -123,6 +123,15 @@ def _columns(shapes: dict[str, tuple[int, ...]]) -> set[str]:
     return set(shapes) | split
 
 
+def _unmarked(path: Path, stored: list[str]) -> DataError:
+    """The error for a file without ``u``/``y`` (or iddata) read with no channels named."""
+    shown = ", ".join(map(repr, stored[:LISTED_COLUMNS]))
+    more = f" and {len(stored) - LISTED_COLUMNS} more" if len(stored) > LISTED_COLUMNS else ""
+    return DataError(f"name the input and output columns of {path} (inputs=, outputs=; --inputs, "
+                     f"--outputs), or store them as 2-D arrays u and y, one row per sample; "
+                     f"columns: {shown}{more}")
+
+
 def _npz_shape(archive: object, name: str) -> tuple[int, ...]:
     """The shape an archive's array states in its ``.npy`` header: its data stay compressed."""
     with archive.zip.open(f"{name}.npy") as member:  # type: ignore[attr-defined]
@@ -148,10 +157,12 @@ def read_npz(path: Path, needed: Needed) -> Table:
             if other is not None:
                 raise DataError(f"{path} is a zip archive but not a NumPy .npz: its member {other!r} "
                                 "is not an array")
+            if not stored:
+                raise DataError(f"{path} holds no arrays")
+            if needed(stored) is None and not set(MARKED) <= set(stored):
+                raise _unmarked(path, stored)
             wanted = _wanted(stored, lambda name: _npz_shape(archive, name), needed, str(path))
             arrays = {name: archive[name] for name in wanted}
-    if not stored:
-        raise DataError(f"{path} holds no arrays")
     return array_table(arrays, str(path), stored)
 
 
@@ -220,13 +231,15 @@ def read_mat(path: Path, needed: Needed) -> Table:
         except NotImplementedError:  # scipy's answer to the HDF5-based v7.3 format
             raise DataError(f"{path} is a MATLAB v7.3 (HDF5) file; save it in MATLAB with "
                             "save(name, ..., '-v7')") from None
-    variables = {key: value for key, value in content.items() if not key.startswith("__")}
-    if not variables:
+    if not stored:
         raise DataError(f"{path} holds no variables")
+    variables = {key: value for key, value in content.items() if not key.startswith("__")}
     structs = {key: value for key, value in variables.items()
                if isinstance(value, mat_struct) and IDDATA_FIELDS <= set(value._fieldnames)}
     if len(structs) > 1:
         raise DataError(f"{path} holds several iddata structs ({', '.join(structs)}); keep one per file")
     if structs:
         return iddata_table(*structs.popitem(), str(path))
+    if kept is None and not set(MARKED) <= set(stored):
+        raise _unmarked(path, stored)
     return array_table(variables, str(path), stored)
