@@ -7,10 +7,10 @@ target with :func:`os.replace`, which is atomic on POSIX and Windows. A process 
 mid-write, a full disk or a failing encoder leaves the previous file as it was (or no
 file), never a truncated one; two writers racing on one path leave one complete file.
 
-A process killed before its rename leaves its temporary file behind. The next write into
-that folder removes such leftovers (:func:`remove_leftovers`): only files named as moli
-names them, and only when their writer is gone, so a save running at the same time in
-another process keeps its file.
+A process killed before its rename leaves its temporary file behind. A process's first
+write into that folder removes such leftovers (:func:`remove_leftovers`): only files named
+as moli names them, and only when their writer is gone, so a save running at the same
+time in another process keeps its file.
 """
 
 from __future__ import annotations
@@ -33,6 +33,9 @@ TEMPORARY = re.compile(r"\..+\.(?P<pid>[1-9]\d{0,9})\.[a-z0-9_]{8}\.part")
 # change: its process id means nothing to a writer on another machine sharing the folder,
 # which is still writing if it changed the file that recently.
 GRACE_SECONDS = 60.0
+# Folders this process has already rid of leftovers: one look per folder and process, so
+# a fleet writing thousands of models into one folder does not list it at every save.
+_SWEPT: set[str] = set()
 # A temporary file unchanged this long is a leftover whatever its process id says: that
 # id may have been given to another process since, and no write of moli pauses for a day.
 STALE_SECONDS = 86400.0
@@ -71,7 +74,10 @@ def atomic_file(path: str | os.PathLike[str], mode: str = "w", encoding: str | N
     if mode not in ("w", "wb"):
         raise ValueError(f"mode must be 'w' or 'wb', got {mode!r}")
     target = Path(path)
-    remove_leftovers(target.parent)
+    folder = os.path.abspath(target.parent)
+    if folder not in _SWEPT:
+        remove_leftovers(folder)
+        _SWEPT.add(folder)
     fd, temporary = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.{os.getpid()}.", suffix=".part")
     try:
         text = {"encoding": encoding, "newline": newline} if mode == "w" else {}
@@ -117,8 +123,8 @@ def remove_leftovers(folder: str | os.PathLike[str]) -> list[Path]:
     except OSError:
         return removed
     for entry in entries:
-        found = TEMPORARY.fullmatch(entry.name)
-        if found is None:
+        found = entry.name.endswith(".part") and TEMPORARY.fullmatch(entry.name)
+        if not found:
             continue
         try:
             if not entry.is_file(follow_symlinks=False):
