@@ -171,6 +171,21 @@ def test_modules_stay_small():
     assert {n: s for n, s in sizes.items() if s > MAX_LINES} == {}
 
 
+# More positional parameters than this are a call nobody can read: the rest are keyword-only.
+MAX_POSITIONAL = 6
+
+
+def test_no_function_takes_more_than_six_positional_parameters():
+    crowded = []
+    for name, path in _modules().items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                positional = [a.arg for a in node.args.posonlyargs + node.args.args if a.arg not in ("self", "cls")]
+                if len(positional) > MAX_POSITIONAL:
+                    crowded.append(f"{name}.{node.name}: {len(positional)}")
+    assert crowded == []
+
+
 def test_public_modules_declare_all():
     lacking = [
         name for name, path in _modules().items()

@@ -110,6 +110,68 @@ def test_a_writer_killed_mid_write_leaves_the_old_model(tmp_path):
     assert path.read_bytes() == before
 
 
+def _stalled_writer(path: Path) -> subprocess.Popen:
+    """A child that stops inside its save of ``path`` (after writing, before the rename)."""
+    child = subprocess.Popen([sys.executable, "-c", textwrap.dedent(f"""
+        import time, numpy as np, moli
+        from moli.data import atomic_files
+        def stall(fd):
+            print("writing", flush=True); time.sleep(60)
+        atomic_files.os.fsync = stall
+        moli.StateSpaceModel(np.eye(4) * 0.5, np.ones((4, 1)), np.ones((1, 4))).save({str(path)!r})
+    """)], stdout=subprocess.PIPE, text=True, env={**os.environ, "PYTHONPATH": str(Path(moli.__file__).parents[1])})
+    assert child.stdout.readline().strip() == "writing"
+    return child
+
+
+def _age(path: Path, seconds: float) -> None:
+    past = path.stat().st_mtime - seconds
+    os.utime(path, (past, past))
+
+
+def test_the_next_save_removes_a_killed_writers_leftover_but_not_a_live_ones(tmp_path):
+    path = tmp_path / "model.json"
+    killed = _stalled_writer(path)
+    killed.kill()
+    killed.wait(timeout=30)
+    [leftover] = tmp_path.glob(".model.json.*.part")
+    live = _stalled_writer(tmp_path / "other.json")    # a save in progress beside this one
+    try:
+        [writing] = tmp_path.glob(".other.json.*.part")
+        for name in (leftover, writing):  # both unchanged past the grace a writer elsewhere gets
+            _age(name, 2 * atomic_files.GRACE_SECONDS)
+        model(1).save(path)
+        assert not leftover.exists() and writing.exists()
+        assert moli.load_model(path).n == 1
+    finally:
+        live.kill()
+        live.wait(timeout=30)
+
+
+def test_only_moli_temporary_files_of_ended_writers_are_removed(tmp_path):
+    ended = subprocess.Popen([sys.executable, "-c", "pass"])
+    ended.wait(timeout=30)
+    names = {
+        f".model.json.{ended.pid}.abcd_123.part": False,     # its writer ended: removed
+        f".model.json.{os.getpid()}.abcd_124.part": True,    # this process is alive: kept
+        ".model.json.abcd1234.part": True,                   # no process id: not named by moli
+        f"model.json.{ended.pid}.abcd1234.part": True,       # not hidden: not named by moli
+        f".notes.{ended.pid}.abcd1234.part.bak": True,
+        ".notes.part": True,
+    }
+    for name in names:
+        (tmp_path / name).write_text("partial")
+        _age(tmp_path / name, 2 * atomic_files.GRACE_SECONDS)
+    recent = tmp_path / f".report.html.{ended.pid}.abcd1235.part"
+    recent.write_text("partial")   # changed within the grace: a writer on another machine may own it
+    stale = tmp_path / f".report.html.{os.getpid()}.abcd1236.part"
+    stale.write_text("partial")
+    _age(stale, 2 * atomic_files.STALE_SECONDS)   # unchanged for two days: its id was reused
+    model(1).save(tmp_path / "model.json")
+    assert {name: (tmp_path / name).exists() for name in names} == names
+    assert recent.exists() and not stale.exists()
+
+
 def test_two_concurrent_writers_leave_one_complete_model(tmp_path):
     path = tmp_path / "model.json"
     model(5).save(path)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import json
+import re
 
 import numpy as np
 import pytest
@@ -109,6 +110,66 @@ def test_a_spoiled_model_file_is_a_model_file_error(case, saved, tmp_path):
     path.write_text(json.dumps(spoil(saved)))
     with pytest.raises(ModelFileError, match=message):
         moli.load_model(path)
+
+
+@pytest.fixture(scope="module")
+def saved_continuous() -> dict:
+    return moli.example_plant().to_continuous().to_dict()
+
+
+# spoiled fields that both kinds of model file hold -> what the error must name
+SHARED = {
+    "offset of the wrong length": ("y_offset", [0.0], "y_offset must have 3 entries"),
+    "NaN offset": ("u_offset", [0.0, float("nan"), 0.0], "u_offset must be finite"),
+    "infinite offset": ("y_offset", [float("inf"), 0.0, 0.0], "y_offset must be finite"),
+    "names as one string": ("output_names", "abc", "output_names must be a list of 3 names (distinct strings)"),
+    "duplicate names": ("input_names", ["u1", "u1", "u2"], "input_names must be distinct"),
+    "numbers as names": ("output_names", [1, 2, 3], "output_names must be a list of 3 names (distinct strings)"),
+    "names in a dict": ("input_names", {"u1": 1, "u2": 2, "u3": 3}, "input_names must be a list of 3"),
+}
+DELAYS = {
+    "infinite delay": ([0.0, float("inf"), 0.0], "input_delays must be finite and non-negative"),
+    "NaN delay": ([float("nan"), 0.0, 0.0], "input_delays must be finite and non-negative"),
+    "negative delay": ([0.0, 0.0, -0.5], "input_delays must be finite and non-negative"),
+    "delays of the wrong length": ([0.0, 1.0], "input_delays must have 3 entries"),
+    "delays as text": ("0.5", "input_delays must be an array of real"),
+}
+
+
+@pytest.mark.parametrize("kind", ["discrete", "continuous"])
+@pytest.mark.parametrize("case", sorted(SHARED))
+def test_either_kind_of_model_file_names_the_spoiled_field_and_the_file(case, kind, saved, saved_continuous,
+                                                                        tmp_path):
+    key, value, message = SHARED[case]
+    path = tmp_path / "model.json"
+    path.write_text(json.dumps(_set(saved if kind == "discrete" else saved_continuous, key, value)))
+    with pytest.raises(ModelFileError, match=re.escape(f"{path}: ") + ".*" + re.escape(message)):
+        moli.load_model(path)
+
+
+@pytest.mark.parametrize("case", sorted(DELAYS))
+def test_a_continuous_model_file_refuses_delays_that_are_no_dead_times(case, saved_continuous, tmp_path):
+    value, message = DELAYS[case]
+    path = tmp_path / "model.json"
+    path.write_text(json.dumps(_set(saved_continuous, "input_delays", value)))
+    with pytest.raises(ModelFileError, match=re.escape(f"{path}: ") + ".*" + re.escape(message)):
+        moli.load_model(path)
+
+
+def test_a_discrete_model_file_refuses_delays_that_are_not_whole_samples(saved, tmp_path):
+    for value in ([0, 1.5, 0], [0, -1, 0], [0, float("inf"), 0]):
+        path = tmp_path / "model.json"
+        path.write_text(json.dumps(_set(saved, "input_delays", value)))
+        with pytest.raises(ModelFileError, match="input_delays must be"):
+            moli.load_model(path)
+
+
+def test_the_checked_continuous_model_file_reads_back_what_was_saved(saved_continuous, tmp_path):
+    path = tmp_path / "model.json"
+    path.write_text(json.dumps(_set(saved_continuous, "input_delays", [0.0, 0.25, 2.0])))
+    model = moli.load_model(path)
+    assert model.input_delays == (0.0, 0.25, 2.0) and model.output_names == ("y1", "y2", "y3")
+    np.testing.assert_array_equal(model.y_offset, saved_continuous["y_offset"])
 
 
 @pytest.mark.parametrize("text, message", [

@@ -5,6 +5,10 @@ variable. 2-D arrays ``u`` and ``y`` (time along axis 0) become columns ``u1, u2
 and ``y1, y2, ...`` and are the default channels. A scalar ``Ts`` is the sampling
 period. A MATLAB iddata saved as a struct (``s = get(data)`` or ``struct(data)``, then
 ``save``) gives its channels under their ``InputName``/``OutputName`` and its ``Ts``.
+
+Only the arrays a request needs are inflated, chosen from the shapes the file states
+before any data (the ``.npy`` headers of an archive, MATLAB's variable headers): a
+compressed file's other arrays, however large they inflate, cost nothing.
 """
 
 from __future__ import annotations
@@ -16,12 +20,15 @@ from typing import Callable, Sequence
 import numpy as np
 
 from .cells import parsing
-from .tables import Table
+from .clocks import looks_like_time, period_kind
+from .tables import LISTED_COLUMNS, Table
 from ..errors import DataError
 
 __all__ = ["read_npz", "read_mat"]
 
 IDDATA_FIELDS = {"OutputData", "InputData"}
+# The arrays that mark the channels and the period when a request names no channels.
+MARKED = ("u", "y")
 Needed = Callable[[list[str]], "set[str] | None"]
 
 
@@ -73,17 +80,67 @@ def array_table(arrays: dict[str, object], source: str, stored: Sequence[str] = 
                  names=(tuple(columns) + unread) if unread else ())
 
 
-def _wanted(stored: list[str], needed: Needed) -> list[str]:
-    """The stored arrays a request reads: the needed columns, ``u``/``y`` for their
-    channels ``u1, y2, ...``, and ``Ts``; every one when the request names no channels."""
+def _rows(shape: tuple[int, ...]) -> int:
+    """Samples of an array of ``shape`` as :func:`array_table` reads it (vectors either way)."""
+    if len(shape) == 2 and 1 in shape:
+        return max(shape)
+    return shape[0] if shape else 1
+
+
+def _wanted(stored: list[str], shape: Callable[[str], tuple[int, ...]], needed: Needed,
+            source: str) -> list[str]:
+    """The stored arrays a request reads, decided from the shapes the file states.
+
+    With channels named: those columns, ``u``/``y`` for their channels ``u1, y2, ...``,
+    and ``Ts``. With none named: ``u``, ``y``, ``Ts``, and the arrays that may give the
+    period (named like time or a period, ``moli.data.clocks``) holding no more values
+    than ``u`` has samples; ``u`` and ``y`` must agree in samples before either is read.
+    ``shape(name)`` is asked only of these arrays.
+    """
+    if "Ts" in stored and int(np.prod(shape("Ts"))) > 1:
+        raise DataError(f"the Ts stored in {source} must be one positive number, got an array of "
+                        f"shape {shape('Ts')}")
     kept = needed(stored)
-    if kept is None:
-        return stored
-    matrices = {name for name in ("u", "y") for column in kept if re.fullmatch(rf"{name}\d+", column)}
-    return [name for name in stored if name in kept or name in matrices or name == "Ts"]
+    if kept is not None:
+        matrices = {name for name in MARKED for column in kept if re.fullmatch(rf"{name}\d+", column)}
+        return [name for name in stored if name in kept or name in matrices or name == "Ts"]
+    if not set(MARKED) <= set(stored):
+        return [name for name in stored if name == "Ts"]
+    samples = {name: _rows(shape(name)) for name in MARKED}
+    if samples["u"] != samples["y"]:
+        raise DataError(f"{source}: u has {samples['u']} rows and y {samples['y']}; time runs "
+                        "along axis 0 (one row per sample)")
+    clocks = {name for name in stored if name not in (*MARKED, "Ts")
+              and (looks_like_time(name) or period_kind(name) is not None)
+              and int(np.prod(shape(name))) <= samples["u"]}
+    return [name for name in stored if name in (*MARKED, "Ts") or name in clocks]
 
 
-def read_npz(path: Path, needed: Needed = lambda names: None) -> Table:
+def _columns(shapes: dict[str, tuple[int, ...]]) -> set[str]:
+    """The columns that arrays of these shapes give: their names, and ``u1, u2, ...`` of ``u``/``y``."""
+    split = {f"{name}{k + 1}" for name in MARKED if name in shapes
+             for k in range(int(np.prod(shapes[name])) // max(_rows(shapes[name]), 1))}
+    return set(shapes) | split
+
+
+def _unmarked(path: Path, stored: list[str]) -> DataError:
+    """The error for a file without ``u``/``y`` (or iddata) read with no channels named."""
+    shown = ", ".join(map(repr, stored[:LISTED_COLUMNS]))
+    more = f" and {len(stored) - LISTED_COLUMNS} more" if len(stored) > LISTED_COLUMNS else ""
+    return DataError(f"name the input and output columns of {path} (inputs=, outputs=; --inputs, "
+                     f"--outputs), or store them as 2-D arrays u and y, one row per sample; "
+                     f"columns: {shown}{more}")
+
+
+def _npz_shape(archive: object, name: str) -> tuple[int, ...]:
+    """The shape an archive's array states in its ``.npy`` header: its data stay compressed."""
+    with archive.zip.open(f"{name}.npy") as member:  # type: ignore[attr-defined]
+        version = np.lib.format.read_magic(member)
+        header = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+        return tuple(header(member)[0])
+
+
+def read_npz(path: Path, needed: Needed) -> Table:
     """The arrays of a NumPy ``.npz`` archive (no pickled objects).
 
     Only the arrays ``needed`` asks for are inflated (see :func:`_wanted`): an
@@ -100,9 +157,12 @@ def read_npz(path: Path, needed: Needed = lambda names: None) -> Table:
             if other is not None:
                 raise DataError(f"{path} is a zip archive but not a NumPy .npz: its member {other!r} "
                                 "is not an array")
-            arrays = {name: archive[name] for name in _wanted(stored, needed)}
-    if not stored:
-        raise DataError(f"{path} holds no arrays")
+            if not stored:
+                raise DataError(f"{path} holds no arrays")
+            if needed(stored) is None and not set(MARKED) <= set(stored):
+                raise _unmarked(path, stored)
+            wanted = _wanted(stored, lambda name: _npz_shape(archive, name), needed, str(path))
+            arrays = {name: archive[name] for name in wanted}
     return array_table(arrays, str(path), stored)
 
 
@@ -145,10 +205,13 @@ def iddata_table(name: str, struct: object, source: str) -> Table:
     return Table(columns, source, _sample, Ts, inputs, outputs)
 
 
-def read_mat(path: Path, needed: Needed = lambda names: None) -> Table:
+def read_mat(path: Path, needed: Needed) -> Table:
     """The variables of a MATLAB ``.mat`` file (v4 to v7), or the iddata struct it holds.
 
-    Only the variables ``needed`` asks for, and structs (an iddata may be one), are read.
+    Only the variables ``needed`` asks for (see :func:`_wanted`) are read, and structs
+    (an iddata may be one) only when those variables cannot give the channels: with
+    channels named, when one of them is not a variable; with none named, when ``u`` or
+    ``y`` is missing.
     """
     from scipy.io import loadmat, whosmat
     from scipy.io.matlab import mat_struct
@@ -157,19 +220,26 @@ def read_mat(path: Path, needed: Needed = lambda names: None) -> Table:
         try:
             listed = whosmat(path)
             stored = [name for name, _, _ in listed]
-            wanted = set(_wanted(stored, needed)) | {name for name, _, kind in listed if kind == "struct"}
+            shapes = {name: tuple(shape) for name, shape, _ in listed}
+            wanted = set(_wanted(stored, shapes.__getitem__, needed, str(path)))
+            kept = needed(stored)
+            covered = set(MARKED) <= wanted if kept is None else kept <= _columns(shapes)
+            if not covered:  # the channels can only come from an iddata struct
+                wanted |= {name for name, _, kind in listed if kind == "struct"}
             content = loadmat(path, squeeze_me=True, struct_as_record=False,
                               variable_names=[name for name in stored if name in wanted])
         except NotImplementedError:  # scipy's answer to the HDF5-based v7.3 format
             raise DataError(f"{path} is a MATLAB v7.3 (HDF5) file; save it in MATLAB with "
                             "save(name, ..., '-v7')") from None
-    variables = {key: value for key, value in content.items() if not key.startswith("__")}
-    if not variables:
+    if not stored:
         raise DataError(f"{path} holds no variables")
+    variables = {key: value for key, value in content.items() if not key.startswith("__")}
     structs = {key: value for key, value in variables.items()
                if isinstance(value, mat_struct) and IDDATA_FIELDS <= set(value._fieldnames)}
     if len(structs) > 1:
         raise DataError(f"{path} holds several iddata structs ({', '.join(structs)}); keep one per file")
     if structs:
         return iddata_table(*structs.popitem(), str(path))
+    if kept is None and not set(MARKED) <= set(stored):
+        raise _unmarked(path, stored)
     return array_table(variables, str(path), stored)

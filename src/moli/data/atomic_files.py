@@ -6,19 +6,39 @@ target's own folder, are flushed to disk (``fsync``) and only then renamed over 
 target with :func:`os.replace`, which is atomic on POSIX and Windows. A process killed
 mid-write, a full disk or a failing encoder leaves the previous file as it was (or no
 file), never a truncated one; two writers racing on one path leave one complete file.
+
+A process killed before its rename leaves its temporary file behind. A process's first
+write into that folder removes such leftovers (:func:`remove_leftovers`): only files named
+as moli names them, and only when their writer is gone, so a save running at the same
+time in another process keeps its file.
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import re
 import tempfile
+import time
 from pathlib import Path
 from typing import IO, Iterable, Iterator
 
 from ..errors import MoliError
 
-__all__ = ["atomic_file", "write_atomic", "check_output_file", "check_output_folder"]
+__all__ = ["atomic_file", "write_atomic", "remove_leftovers", "check_output_file", "check_output_folder"]
+
+# A temporary file is ``.<target name>.<writer's process id>.<mkstemp's 8 characters>.part``.
+TEMPORARY = re.compile(r"\..+\.(?P<pid>[1-9]\d{0,9})\.[a-z0-9_]{8}\.part")
+# A temporary file whose writer has ended is left alone this many seconds after its last
+# change: its process id means nothing to a writer on another machine sharing the folder,
+# which is still writing if it changed the file that recently.
+GRACE_SECONDS = 60.0
+# Folders this process has already rid of leftovers: one look per folder and process, so
+# a fleet writing thousands of models into one folder does not list it at every save.
+_SWEPT: set[str] = set()
+# A temporary file unchanged this long is a leftover whatever its process id says: that
+# id may have been given to another process since, and no write of moli pauses for a day.
+STALE_SECONDS = 86400.0
 
 
 @contextlib.contextmanager
@@ -54,7 +74,11 @@ def atomic_file(path: str | os.PathLike[str], mode: str = "w", encoding: str | N
     if mode not in ("w", "wb"):
         raise ValueError(f"mode must be 'w' or 'wb', got {mode!r}")
     target = Path(path)
-    fd, temporary = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.", suffix=".part")
+    folder = os.path.abspath(target.parent)
+    if folder not in _SWEPT:
+        remove_leftovers(folder)
+        _SWEPT.add(folder)
+    fd, temporary = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.{os.getpid()}.", suffix=".part")
     try:
         text = {"encoding": encoding, "newline": newline} if mode == "w" else {}
         with os.fdopen(fd, mode, **text) as handle:
@@ -67,6 +91,51 @@ def atomic_file(path: str | os.PathLike[str], mode: str = "w", encoding: str | N
         with contextlib.suppress(OSError):
             os.unlink(temporary)
         raise
+
+
+def _running(pid: int) -> bool:
+    """Whether process ``pid`` runs on this machine; True when that cannot be told."""
+    if os.name != "posix":
+        return True  # os.kill there would end the process, not probe it
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (OSError, OverflowError):  # another user's process, or an id no process can have
+        return True
+    return True
+
+
+def remove_leftovers(folder: str | os.PathLike[str]) -> list[Path]:
+    """Remove the temporary files that killed writes left in ``folder``; return them.
+
+    A file is removed when its name is one :func:`atomic_file` gives (``.NAME.PID.XXXXXXXX.part``)
+    and either its writing process ``PID`` no longer runs and the file has not changed for
+    :data:`GRACE_SECONDS`, or it has not changed for :data:`STALE_SECONDS` (its writer's
+    id since given to another process). A write in progress, in this process or another,
+    is never touched. Files that vanish or cannot be removed meanwhile are skipped: the
+    caller's own write is what matters.
+    """
+    removed = []
+    now = time.time()
+    try:
+        entries = list(os.scandir(folder))
+    except OSError:
+        return removed
+    for entry in entries:
+        found = entry.name.endswith(".part") and TEMPORARY.fullmatch(entry.name)
+        if not found:
+            continue
+        try:
+            if not entry.is_file(follow_symlinks=False):
+                continue
+            age = now - entry.stat(follow_symlinks=False).st_mtime
+            if age > STALE_SECONDS or age > GRACE_SECONDS and not _running(int(found["pid"])):
+                os.unlink(entry.path)
+                removed.append(Path(entry.path))
+        except OSError:
+            continue
+    return removed
 
 
 def _keep_mode(target: Path, temporary: str) -> None:

@@ -170,7 +170,7 @@ def _period(columns: Mapping[str, np.ndarray], names: Sequence[str], channels: s
 
 def find_clock(
     columns: Mapping[str, np.ndarray], names: Sequence[str], channels: Sequence[str],
-    time_column: str | bool | None, time_format: str | None, decimal: str, tolerance: float,
+    time_column: str | bool | None, time_format: str | None, decimal: str, *, tolerance: float,
 ) -> Clock:
     """The time column and the period column of a table whose columns come in ``names`` order.
 
@@ -228,17 +228,18 @@ def stated_period(given: float | None, stored: float | None, clock: Clock, sourc
 
 def period_notice(source: str, clock: Clock, Ts: float, unit: str) -> SamplingPeriodWarning | None:
     """Where a period the caller did not give came from, when moli had to choose it: a
-    period column, a time column found by rules 2 or 3, or Ts = 1 assumed.
+    period column, a time column found by its content (rule 3), or Ts = 1 assumed.
 
-    None for a time column the caller named or one of the standard names (``time``,
-    ``t``...): its period is what the file plainly says.
+    None for a time column the caller named, or one found by its name (rules 1 and 2:
+    ``time``, ``Time [s]``, ``Zeit``...): its period is what the file plainly says, and
+    a warning on every read of such a file would drown the warnings that matter.
     """
     state = "; give Ts= (--ts) to state it"
     if clock.period is not None:
         agrees = f"; the time column {clock.time!r} agrees" if clock.time else ""
         return SamplingPeriodWarning(f"{source}: Ts = {Ts:g} from {clock.period[2]}{agrees}{state}")
     if clock.time is not None:
-        if clock.how in ("named", "standard"):
+        if clock.how in ("named", "standard", "by its name"):
             return None
         return SamplingPeriodWarning(
             f"{source}: Ts = {Ts:g}{unit} from the time column {clock.time!r} (found "

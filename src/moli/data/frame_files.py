@@ -39,11 +39,12 @@ def join_chunks(chunks: Iterable["pd.DataFrame"], source: str, names: list[str])
             for name in names}
 
 
-def read_parquet(path: Path, needed: Callable[[list[str]], set[str] | None] = lambda names: None) -> Table:
+def read_parquet(path: Path, needed: Callable[[list[str]], set[str] | None]) -> Table:
     """The columns of a Parquet file (and its index, when pandas stored a named one).
 
-    ``needed(names)`` says which columns to keep (None: all); the file is converted
-    :data:`CHUNK_ROWS` rows at a time, so the others never take memory.
+    ``needed(names)`` says which columns to keep; None (no channels named, which a
+    Parquet file cannot mark) keeps none. The file is converted :data:`CHUNK_ROWS` rows
+    at a time, so the others never take memory.
     """
     optional("pandas", f"reading {path.name}")
     parquet = optional("pyarrow.parquet", f"reading {path.name}")
@@ -51,8 +52,8 @@ def read_parquet(path: Path, needed: Callable[[list[str]], set[str] | None] = la
         file = parquet.ParquetFile(path)
         # pandas stores an unnamed index that is not a range as __index_level_0__
         names = [name for name in file.schema_arrow.names if not name.startswith("__index_level_")]
-        kept = needed(names)
-        chosen = None if kept is None else [name for name in names if name in kept]
-        chunks = (batch.to_pandas() for batch in file.iter_batches(CHUNK_ROWS, columns=chosen))
-        columns = join_chunks(chunks, str(path), names if chosen is None else chosen)
+        kept = needed(names) or set()
+        chosen = [name for name in names if name in kept]
+        chunks = (batch.to_pandas() for batch in file.iter_batches(CHUNK_ROWS, columns=chosen)) if chosen else ()
+        columns = join_chunks(chunks, str(path), chosen)
     return Table(columns, str(path), names=tuple(names))

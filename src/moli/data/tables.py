@@ -110,12 +110,15 @@ def check_header(names: Sequence[object], source: str) -> None:
 
 
 def needed_columns(request: Request, names: Sequence[str]) -> set[str] | None:
-    """The columns of ``names`` that :func:`record` reads for ``request``; None: every one.
+    """The columns of ``names`` that :func:`record` reads for ``request``; None when the
+    request does not name both inputs and outputs.
 
-    A reader that can skip columns parses only these: the channels, the time column
-    named or the candidates for one (time-like names, the first column) and the period
-    columns (moli.data.clocks), so a long record's comment or status column never
-    becomes text in memory.
+    A reader parses only these: the channels, the time column named or the candidates
+    for one (time-like names, the first column) and the period columns
+    (moli.data.clocks), so a long record's comment or status column never becomes text
+    in memory. None leaves the channels to the file: ``u``/``y`` arrays or an iddata
+    (moli.data.array_files); a table, which cannot mark them, then reads no column, and
+    the error lists its columns.
     """
     if request.inputs is None or request.outputs is None:
         return None
@@ -229,7 +232,7 @@ def _period(table: Table, request: Request, channels: Sequence[str], samples: in
         raise DataError(f"{table.source} has no time column {request.time_column!r}; "
                         f"columns: {_listing(table)}")
     clock = find_clock(table.columns, list(table.names or table.columns), channels,
-                       request.time_column, request.time_format, table.decimal, request.tolerance)
+                       request.time_column, request.time_format, table.decimal, tolerance=request.tolerance)
     Ts, stated = stated_period(request.Ts, table.Ts, clock, table.source, request.tolerance)
     chosen = request.Ts is None and table.Ts is None      # moli chose the period: say how
     if clock.time is None:
@@ -253,7 +256,7 @@ def _period(table: Table, request: Request, channels: Sequence[str], samples: in
     if not gaps:
         return period, seconds, None, notice
     return period, seconds, irregular_warning(gaps, period, samples, request.tolerance, table.source,
-                                              table.row, unit), notice
+                                              table.row, unit=unit), notice
 
 
 def record(table: Table, request: Request) -> IOData:

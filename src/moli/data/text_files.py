@@ -33,6 +33,13 @@ BOMS = (
 # The encoding detector reads this much of a file; a plant record's header and first
 # rows are text enough, and the detector's time grows with its input.
 DETECT_BYTES = 1 << 18
+# Without a byte-order mark or valid UTF-8, the encoding is told from this much of the
+# file's beginning: a legacy code page's letters show in a logger's header and first rows.
+LEGACY_BYTES = 1 << 24
+# This many zero bytes in a row are no text in any encoding: without the character U+0000,
+# UTF-8, -16 and -32 have at most 5 in a row (UTF-32: the 3 high bytes of one character
+# and the 2 low bytes of the next). Padding left by a crash, or binary data.
+ZERO_RUN = b"\x00" * 8
 # The sniffed lines are read whole up to this many bytes in all.
 SNIFF_BYTES = 1 << 26
 # Bytes read at a time when checking that a file is UTF-8.
@@ -89,11 +96,11 @@ def check_text_options(delimiter: object, decimal: object, encoding: object) -> 
     return delimiter, decimal, encoding  # type: ignore[return-value]
 
 
-def _sample(raw: bytes) -> bytes:
-    """The head of ``raw`` for the detector, cut after a line end (and its UTF-16 zero byte)."""
-    if len(raw) <= DETECT_BYTES:
+def _sample(raw: bytes, limit: int = DETECT_BYTES) -> bytes:
+    """The head of ``raw`` up to ``limit`` bytes, cut after a line end (and its UTF-16 zero byte)."""
+    if len(raw) <= limit:
         return raw
-    end = raw.rfind(b"\n", 0, DETECT_BYTES) + 1 or DETECT_BYTES
+    end = raw.rfind(b"\n", 0, limit) + 1 or limit
     return raw[: end + 1] if raw[end:end + 1] == b"\x00" else raw[:end]
 
 
@@ -163,46 +170,81 @@ def detect_encoding(raw: bytes) -> str:
     return western if best is None else best.encoding
 
 
-def _decode(raw: bytes, encoding: str, path: Path, given: bool) -> str:
-    """``raw`` as text, or the error naming the line of the first byte that does not decode."""
-    try:
-        return raw.decode(encoding)
-    except UnicodeDecodeError as exc:
-        line = raw[: exc.start].count(b"\n") + 1
-        how = "" if given else " (detected)"
-        raise DataError(
-            f"{path} is not {encoding}{how} text: byte 0x{raw[exc.start]:02x} on line {line} "
-            "does not decode; give the file's encoding (encoding= or --encoding), e.g. utf-8, "
-            "utf-16, cp1252"
-        ) from None
-
-
-def _plain_utf8(path: Path) -> bool:
-    """True when the whole file is UTF-8 without zero bytes, checked block by block."""
-    decoder = codecs.getincrementaldecoder("utf-8")()
-    try:
-        with path.open("rb") as handle:
-            for block in iter(lambda: handle.read(BLOCK_BYTES), b""):
-                if b"\x00" in block:
-                    return False
+def _undecodable(path: Path, encoding: str, given: bool) -> DataError:
+    """The error naming the line of the file's first byte that does not decode as
+    ``encoding``, found block by block (the file is never held whole)."""
+    decoder = codecs.getincrementaldecoder(encoding)()
+    lines, bad = 1, None
+    with path.open("rb") as handle:
+        for block in iter(lambda: handle.read(BLOCK_BYTES), b""):
+            held = bytes(getattr(decoder, "buffer", b""))  # bytes of a character cut by the last block
+            try:
                 decoder.decode(block)
-        decoder.decode(b"", final=True)
-    except UnicodeDecodeError:
-        return False
-    return True
+            except UnicodeDecodeError as exc:
+                data = held + block
+                lines, bad = lines - held.count(b"\n") + data[: exc.start].count(b"\n"), data[exc.start]
+                break
+            lines += block.count(b"\n")
+    how = "" if given else " (detected)"
+    shown = f"byte 0x{bad:02x}" if bad is not None else "its last bytes, a character cut short,"
+    return DataError(
+        f"{path} is not {encoding}{how} text: {shown} on line {lines} does not decode; give the "
+        "file's encoding (encoding= or --encoding), e.g. utf-8, utf-16, cp1252"
+    )
 
 
-def _file_encoding(path: Path, head: bytes) -> str:
-    """:func:`detect_encoding` of the file, without holding a UTF-8 file in memory.
+def _scan(path: Path) -> int | None:
+    """The offset of the file's first byte that is not UTF-8 text (a zero byte counts),
+    None when there is none; the file is read block by block.
 
-    Legacy code pages are told apart on the whole file, as :func:`detect_encoding` does;
-    such files come from older loggers and are short.
+    A run of :data:`ZERO_RUN` zero bytes anywhere is an error here, before any decoding
+    or parsing: a file padded with zeros would otherwise be taken for UTF-16 and read
+    whole, or parsed as one endless line.
     """
+    decoder = codecs.getincrementaldecoder("utf-8")()
+    first, done, tail = None, 0, b""
+    with path.open("rb") as handle:
+        for block in iter(lambda: handle.read(BLOCK_BYTES), b""):
+            joined = tail + block
+            found = joined.find(ZERO_RUN)
+            if found >= 0:
+                raise DataError(
+                    f"{path} is not a text table: it holds zero bytes from byte {done - len(tail) + found} "
+                    "on (a file padded with zeros after a crash, or binary data); cut the file before "
+                    "them, or is it another format with the wrong suffix?")
+            if first is None:
+                first = _not_utf8(decoder, block, done)
+            tail, done = joined[1 - len(ZERO_RUN):], done + len(block)
+    return _not_utf8(decoder, b"", done, final=True) if first is None else first
+
+
+def _not_utf8(decoder: codecs.BufferedIncrementalDecoder, block: bytes, done: int,
+              final: bool = False) -> int | None:
+    """Where in the file (``block`` starts at byte ``done``) UTF-8 stops, or None."""
+    held = len(decoder.buffer)  # bytes of a character the last block cut
+    zero = block.find(b"\x00")
+    try:
+        decoder.decode(block if zero < 0 else block[:zero], final)
+    except UnicodeDecodeError as exc:
+        return done - held + exc.start
+    return None if zero < 0 else done + zero
+
+
+def _file_encoding(path: Path, head: bytes, first: int | None) -> str:
+    """:func:`detect_encoding` of the file (``first``: where UTF-8 stops, from :func:`_scan`)
+    without holding it in memory: a file that is not UTF-8 is told from its first
+    :data:`LEGACY_BYTES` and, when ``first`` lies beyond them, the lines around it."""
     if any(head.startswith(bom) for bom, _ in BOMS):
         return detect_encoding(head)
-    if _plain_utf8(path):
+    if first is None:
         return "utf-8"
-    return detect_encoding(path.read_bytes())
+    with path.open("rb") as handle:
+        raw = _sample(handle.read(LEGACY_BYTES + 1), LEGACY_BYTES)
+        if first >= len(raw):
+            handle.seek(max(first - DETECT_BYTES, 0))
+            window = handle.read(2 * DETECT_BYTES)
+            raw += window[window.find(b"\n") + 1: window.rfind(b"\n") + 1 or None]
+    return detect_encoding(raw)
 
 
 def _head_text(head: bytes, encoding: str, path: Path, given: bool) -> str:
@@ -211,8 +253,7 @@ def _head_text(head: bytes, encoding: str, path: Path, given: bool) -> str:
     try:
         text = codecs.getincrementaldecoder(encoding)().decode(head)
     except UnicodeDecodeError:
-        _decode(path.read_bytes(), encoding, path, given)  # raises, naming the line
-        raise
+        raise _undecodable(path, encoding, given) from None
     bad = CONTROL.search(text)
     if bad:
         line = text.count("\n", 0, bad.start()) + 1
@@ -300,18 +341,20 @@ def _sniffed_bytes(handle: BinaryIO, head: bytes) -> tuple[bytes, bool]:
 
 
 def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: str | None,
-              needed: Callable[[list[str]], set[str] | None] = lambda names: None) -> Table:
+              needed: Callable[[list[str]], set[str] | None]) -> Table:
     """The columns of a text table, every cell located by its line in the file.
 
-    ``needed(names)`` says which of the header's (stripped) column names to keep, None for
-    all; the table's ``names`` lists them all. The file is parsed in chunks of
+    ``needed(names)`` says which of the header's (stripped) column names to keep; None (no
+    channels named, which a text table cannot mark) keeps none, so only the header is
+    parsed. The table's ``names`` lists them all. The file is parsed in chunks of
     :data:`~moli.data.frame_files.CHUNK_ROWS` rows, so no more than one chunk's text and
     cells are held besides the columns kept.
     """
+    first = _scan(path)
     with path.open("rb") as handle:
         head_bytes = handle.read(DETECT_BYTES)
         sniffed, ended = _sniffed_bytes(handle, head_bytes)
-    chosen = encoding or _file_encoding(path, head_bytes)
+    chosen = encoding or _file_encoding(path, head_bytes, first)
     text = _head_text(sniffed, chosen, path, encoding is not None)
     if not ended and "\n" in text:
         text = text[: text.rindex("\n")]  # a line cut short would split into fewer fields
@@ -330,12 +373,13 @@ def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: 
         header = [str(name) for name in pd.read_csv(path, nrows=0, **options).columns]
         check_header(header, str(path))
         names = list(dict.fromkeys(name.strip() for name in header))
-        kept = needed(names)
-        with pd.read_csv(path, chunksize=frame_files.CHUNK_ROWS, **options) as reader:
-            columns = join_chunks(reader, str(path), [n for n in names if kept is None or n in kept])
+        kept = needed(names) or set()
+        columns = {}
+        if kept & set(names):
+            with pd.read_csv(path, chunksize=frame_files.CHUNK_ROWS, **options) as reader:
+                columns = join_chunks(reader, str(path), [n for n in names if n in kept])
     except UnicodeDecodeError:
-        _decode(path.read_bytes(), chosen, path, encoding is not None)  # raises, naming the line
-        raise
+        raise _undecodable(path, chosen, encoding is not None) from None
     except ValueError as exc:  # pandas' ParserError and EmptyDataError are ValueErrors
         raise DataError(f"cannot read {path} as a table with {_shown(delimiter)} between "
                         f"columns: {exc}") from None

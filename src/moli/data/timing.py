@@ -192,6 +192,7 @@ def irregular_warning(
     tolerance: float,
     source: str,
     where: Callable[[int], str],
+    *,
     unit: str = "",
 ) -> IrregularSamplingWarning:
     """The warning for irregular steps of ``source``, naming the gaps longer than 1.5 Ts.

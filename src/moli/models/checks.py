@@ -9,7 +9,11 @@ import numpy as np
 from ..data.arguments import integer, name_list, real_array
 from ..errors import DataError
 
-__all__ = ["matrix", "covariance", "checked_divisors", "channel_names", "indices_of", "vector", "Dimensions"]
+__all__ = ["matrix", "covariance", "checked_divisors", "channel_names", "stored_names", "indices_of",
+           "vector", "time_delays", "Dimensions"]
+
+# A value quoted in a message about a model file is cut to this many characters.
+QUOTED_CHARS = 60
 
 
 def matrix(name: str, value: object, shape: tuple[int, int] | None = None) -> np.ndarray:
@@ -26,6 +30,33 @@ def channel_names(given: Sequence[str] | None, count: int, prefix: str, what: st
     if given is None:
         return tuple(f"{prefix}{i + 1}" for i in range(count))
     return name_list(what, given, count)
+
+
+def _quoted(value: object) -> str:
+    text = repr(value)
+    return text if len(text) <= QUOTED_CHARS else text[:QUOTED_CHARS] + "..."
+
+
+def stored_names(what: str, value: object, count: int) -> tuple[str, ...]:
+    """Channel names as a model file holds them: a list of ``count`` distinct strings.
+
+    Stricter than :func:`channel_names`, which takes any sequence and turns numbers into
+    text: in a file, one string would be read as its characters and a number is a
+    spoiled field, not a name.
+    """
+    if not isinstance(value, list) or not all(isinstance(name, str) for name in value):
+        raise DataError(f"{what} must be a list of {count} names (distinct strings), got {_quoted(value)}")
+    return name_list(what, value, count)
+
+
+def time_delays(value: object, m: int) -> tuple[float, ...]:
+    """The dead time of each of ``m`` inputs of a continuous model: finite, non-negative."""
+    delays = real_array("input_delays", value, ndim=1, finite=False)
+    if delays.size != m:
+        raise DataError(f"input_delays must have {m} entries (one per input), got {_quoted(value)}")
+    if not np.all(np.isfinite(delays) & (delays >= 0)):
+        raise DataError(f"input_delays must be finite and non-negative (time units), got {_quoted(value)}")
+    return tuple(float(d) for d in delays)
 
 
 def indices_of(given: object) -> tuple[int, ...] | None:

@@ -23,7 +23,7 @@ from .._version import __version__
 from ..data.atomic_files import write_atomic
 from ..errors import DataError, OptionError
 from .bands import magnitude_bands, step_bands
-from .checks import Dimensions, matrix
+from .checks import Dimensions, matrix, stored_names, time_delays, vector
 from .frequency import check_omega, frequency_response
 from .propagation import propagate
 from .sampling import CONVERSION_METHODS, continuous_matrices, discretize
@@ -297,13 +297,18 @@ class ContinuousModel(Dimensions):
 
     @classmethod
     def from_dict(cls, content: dict[str, Any]) -> "ContinuousModel":
-        """The model :meth:`to_dict` describes (fields checked)."""
+        """The model :meth:`to_dict` describes, every field checked as a discrete model's is
+        (names a list of distinct strings, offsets finite and one per channel) and its
+        delays finite and non-negative."""
         arrays = {name: matrix(name, content[name]) for name in ("A", "B", "C", "D")}
+        p, m = arrays["C"].shape[0], arrays["B"].shape[1]
         return cls(
-            arrays["A"], arrays["B"], arrays["C"], arrays["D"], tuple(content["output_names"]),
-            tuple(content["input_names"]), np.array(content["y_offset"], dtype=float),
-            np.array(content["u_offset"], dtype=float), tuple(float(d) for d in content["input_delays"]),
-            content.get("cov_factor"), content.get("input_hold", "zoh"), content.get("info") or {},
+            arrays["A"], arrays["B"], arrays["C"], arrays["D"],
+            stored_names("output_names", content["output_names"], p),
+            stored_names("input_names", content["input_names"], m),
+            vector("y_offset", content["y_offset"], p), vector("u_offset", content["u_offset"], m),
+            time_delays(content["input_delays"], m), content.get("cov_factor"),
+            content.get("input_hold", "zoh"), content.get("info") or {},
         )
 
     def save(self, path: str | Path) -> None:

@@ -8,6 +8,7 @@ from typing import Any
 
 from .._version import __version__
 from ..errors import DataError, ModelFileError
+from .checks import matrix, stored_names
 from .continuous import ContinuousModel
 from .statespace import FILE_FORMAT, StateSpaceModel
 
@@ -30,9 +31,12 @@ def model_from_dict(content: dict[str, Any]) -> StateSpaceModel | ContinuousMode
     try:
         if content.get("time") == "continuous":
             return ContinuousModel.from_dict(content)
+        p, m = matrix("C", content["C"]).shape[0], matrix("B", content["B"]).shape[1]
+        names = (stored_names("output_names", content["output_names"], p),
+                 stored_names("input_names", content["input_names"], m))
         return StateSpaceModel(
             content["A"], content["B"], content["C"], content["D"], content["Ts"],
-            output_names=content["output_names"], input_names=content["input_names"], indices=content.get("indices"),
+            output_names=names[0], input_names=names[1], indices=content.get("indices"),
             alpha=content.get("alpha"), y_offset=content.get("y_offset"), u_offset=content.get("u_offset"),
             info=content.get("info"), divisors=content.get("divisors"),
             K=content.get("K"), noise_cov=content.get("noise_cov"),  # absent in older files
@@ -67,4 +71,7 @@ def load_model(path: str | Path) -> StateSpaceModel | ContinuousModel:
         raise ModelFileError(f"cannot read the model file {path}: {exc.strerror}") from None
     except (ValueError, RecursionError) as exc:  # bad JSON, bad UTF-8, nesting or integers past Python's limits
         raise ModelFileError(f"{path} is not a JSON model file: {exc}") from None
-    return model_from_dict(content)
+    try:
+        return model_from_dict(content)
+    except ModelFileError as exc:
+        raise ModelFileError(f"{path}: {exc}") from None
