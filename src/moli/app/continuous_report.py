@@ -22,7 +22,7 @@ from . import figures
 from .figure_files import save_figure
 from .._version import __version__
 from ..data.atomic_files import write_atomic
-from ..data.display import figure_label, report_name
+from ..data.display import angular_unit, figure_label, report_name, time_label
 from ..data.files import file_sha256
 from ..data.iodata import longest_segment
 from ..method.continuous.estimation import simulate_stamped, stamped_record, warm_up_rows
@@ -87,7 +87,7 @@ def _validation_figure(result: ContinuousResult) -> Figure:
     for ax, name in zip(axes, result.model.output_names):
         ax.set_ylabel(figure_label(name))
     axes[0].legend(fontsize=8)
-    axes[-1].set_xlabel("time")
+    axes[-1].set_xlabel(time_label(result.model.info.get("time_unit")))
     return fig
 
 
@@ -100,7 +100,7 @@ def _step_figure(result: ContinuousResult) -> Figure:
     horizon = SETTLING_TIME_CONSTANTS / decay.min() if model.is_stable() and decay.size and decay.min() > 0 else span
     t = np.linspace(0.0, horizon, STEP_POINTS)
     bands = None if model.cov_factor is None else model.step_bands(t, figures.BAND_CONFIDENCE)
-    fig, axes = figures.channel_grid(model, "to", "time")
+    fig, axes = figures.channel_grid(model, "to", time_label(model.info.get("time_unit")))
     for j in range(model.m):
         step = np.zeros((t.size, model.m))
         step[:, j] = 1.0
@@ -134,7 +134,7 @@ def _gain_figure(result: ContinuousResult) -> Figure:
     omega = np.geomspace(max(speeds.min(), 1e-12) / FREQUENCY_MARGIN, speeds.max() * FREQUENCY_MARGIN, 200)
     gain = np.abs(model.frequency_response(omega))
     lower, upper = magnitude_bands(model, omega) if model.cov_factor is not None else (gain, gain)
-    fig, axes = figures.channel_grid(model, "gain", "rad per time unit")
+    fig, axes = figures.channel_grid(model, "gain", angular_unit(model.info.get("time_unit")))
     for i in range(model.p):
         for j in range(model.m):
             ax = axes[i, j]
@@ -174,7 +174,7 @@ def write_continuous_report(result: ContinuousResult, directory: str | Path,
     provenance |= {"moli version": __version__,
                    "written (UTC)": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M:%S")}
     facts = {"indices": str(list(step.indices)), "order n": str(step.order),
-             "filter (wc, zeta)": f"{step.eta[0]:.4g} rad per time unit, {step.eta[1]:.3f}",
+             "filter (wc, zeta)": f"{step.eta[0]:.4g} {angular_unit(model.info.get('time_unit'))}, {step.eta[1]:.3f}",
              "input between samples": {"zoh": "held", "foh": "linear"}[result.options.input_hold],
              "stable": "yes" if model.is_stable() else "NO (a pole with a non-negative real part)",
              "selected by": f"{result.selection} ({result.validation_source})"}
@@ -209,7 +209,7 @@ total {result.seconds:.1f} s. docs/continuous.md says what the method assumes.</
 {facts_table(provenance)}
 <h2>Selected model</h2>{facts_table(facts)}
 {warnings_section(warnings)}
-<h3>Poles (rad per time unit): time constants, natural frequencies and damping</h3><ul>{poles}</ul>
+<h3>Poles ({angular_unit(model.info.get('time_unit'))}): time constants, natural frequencies and damping</h3><ul>{poles}</ul>
 <h3>Static gains with their 95 % intervals</h3>{_gain_table(result)}
 {"" if result.covariance_note is None else f"<p>No covariance, so no intervals or bands: {html.escape(result.covariance_note)}</p>"}
 <h2>Greedy structure path</h2>

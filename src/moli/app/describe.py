@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..data.display import console_text
+from ..data.display import console_text, period_text
 from ..models.protocol import LinearModel
 
 __all__ = ["describe"]
@@ -41,7 +41,8 @@ def describe(model: LinearModel) -> str:
     """
     head = (f"continuous-time state-space model: n = {model.n}, {model.p} outputs, {model.m} inputs"
             if model.is_continuous else
-            f"state-space model: n = {model.n}, {model.p} outputs, {model.m} inputs, Ts = {model.Ts:g}")
+            f"state-space model: n = {model.n}, {model.p} outputs, {model.m} inputs, "
+            f"Ts = {period_text(model.Ts, model.info.get('time_unit'))}")
     lines = [head, f"outputs: {', '.join(map(console_text, model.output_names))}",
              f"inputs: {', '.join(map(console_text, model.input_names))}"]
     if model.is_continuous:
@@ -61,7 +62,7 @@ def _continuous_poles(model: LinearModel) -> list[str]:
     z = model.poles()
     lines = []
     if any(model.input_delays):
-        lines.append(f"input delays (time units): {list(model.input_delays)}")
+        lines.append(f"input delays ({model.info.get('time_unit') or 'time units'}): {list(model.input_delays)}")
     rightmost = f"largest real part of a pole {np.max(z.real):.4g}" if z.size else "no poles"
     lines.append(f"stable: {'yes' if model.is_stable() else 'NO'} ({rightmost})")
     # the poles as time constants, natural frequencies and damping; then the static gains

@@ -12,7 +12,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from ..data.display import figure_label
+from ..data.display import figure_label, period_text, time_label
 from ..data.iodata import IOData
 from ..models.pole_bands import pole_support
 from ..models.statespace import StateSpaceModel
@@ -192,10 +192,10 @@ def measured_vs_simulated(data: IOData, comparison: Comparison) -> Figure:
         ax.grid(alpha=0.3)
     if long:
         grid[0, 1].set_title(f"last {DETAIL_SAMPLES} samples", fontsize=9, loc="right")
-        grid[-1, 1].set_xlabel("time")
+        grid[-1, 1].set_xlabel(time_label(data.time_unit))
     # above the axes (GridLayout puts it there): inside, it hides the first output's start-up transient
     fig.legend(*axes[0].get_legend_handles_labels(), loc="upper left", fontsize=8, ncols=2)
-    axes[-1].set_xlabel("time from the start of the record")
+    axes[-1].set_xlabel(time_label(data.time_unit, "time from the start of the record"))
     return fig
 
 
@@ -228,7 +228,7 @@ def poles(model: StateSpaceModel) -> Figure:
     ax.axvline(0.0, color="0.8", linewidth=0.8)
     ax.set_xlabel("real")
     ax.set_ylabel("imaginary")
-    ax.set_title(f"poles (n = {model.n}, Ts = {model.Ts:g})", fontsize=10)
+    ax.set_title(f"poles (n = {model.n}, Ts = {period_text(model.Ts, model.info.get('time_unit'))})", fontsize=10)
     ax.legend(loc="upper left", fontsize=8)
     return fig
 
@@ -249,7 +249,7 @@ def step_responses(model: StateSpaceModel, samples: int) -> Figure:
     -------
     matplotlib.figure.Figure
     """
-    fig, axes = channel_grid(model, "to", "time")
+    fig, axes = channel_grid(model, "to", time_label(model.info.get("time_unit")))
     t = np.arange(samples) * model.Ts
     bands = None if model.cov_factor is None else model.step_bands(samples, BAND_CONFIDENCE)
     for j in range(model.m):

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 from matplotlib.figure import Figure
 
+from ..data.display import frequency_label
 from ..data.iodata import IOData
 from ..models.statespace import StateSpaceModel
 from ..validation.frequency import EmpiricalResponse, empirical_frequency_response
@@ -65,7 +66,7 @@ def bode_magnitude(model: StateSpaceModel, data: IOData | EmpiricalResponse | No
     gain = np.abs(model.frequency_response(omega))
     bands = None if model.cov_factor is None else model.magnitude_bands(omega, BAND_CONFIDENCE)
     empirical = _spectral_estimate(data, nperseg)
-    fig, axes = channel_grid(model, "|H| to", "frequency (rad per time unit)")
+    fig, axes = channel_grid(model, "|H| to", frequency_label(model.info.get("time_unit")))
     for i in range(model.p):
         for j in range(model.m):
             ax = axes[i, j]
@@ -118,6 +119,6 @@ def singular_values(model: StateSpaceModel, data: IOData | EmpiricalResponse | N
         ax.loglog(empirical.omega[keep], points_sv, ".", color="0.4", markersize=3)
         ax.lines[sv.shape[1]].set_label("spectral estimate")
         ax.legend(fontsize=8)
-    ax.set(xlabel="frequency (rad per time unit)", ylabel="singular values of H")
+    ax.set(xlabel=frequency_label(model.info.get("time_unit")), ylabel="singular values of H")
     ax.grid(alpha=0.3, which="both")
     return fig

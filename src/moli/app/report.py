@@ -19,7 +19,7 @@ from . import figures, frequency_figures
 from .figure_files import save_figure
 from .._version import __version__
 from ..data.atomic_files import write_atomic
-from ..data.display import report_name
+from ..data.display import period_text, report_name
 from ..data.files import file_sha256
 from ..data.iodata import IOData, longest_segment
 from ..errors import DataError
@@ -97,7 +97,7 @@ def _model_facts(result: IdentificationResult) -> str:
         "order n": str(model.n),
         "outputs": ", ".join(map(report_name, model.output_names)),
         "inputs": ", ".join(map(report_name, model.input_names)),
-        "Ts": f"{model.Ts:g}",
+        "Ts": period_text(model.Ts, model.info.get("time_unit")),
         "filter (wc, zeta)": f"{model.info.get('wc', float('nan')):.4g}, "
                              f"{model.info.get('zeta', float('nan')):.3f}",
         "largest pole modulus": f"{radius:.4f} ({'stable' if model.is_stable() else 'UNSTABLE'})",
@@ -314,7 +314,7 @@ def write_report(
 <style>{STYLE}</style></head><body>
 <h1>{html.escape(title)}</h1>
 <p class="note">Estimation {result.estimation.N} samples, validation {validation.N} samples
-({html.escape(result.validation_source)}), Ts = {result.estimation.Ts:g}; total
+({html.escape(result.validation_source)}), Ts = {period_text(result.estimation.Ts, result.estimation.time_unit)}; total
 {result.seconds:.1f} s.</p>
 {_provenance(result, data_file)}
 {interrupted}

@@ -33,7 +33,7 @@ from .cells import parse_numbers
 from .timing import TIME_COLUMNS, datetimes_to_seconds, iso_to_seconds
 from ..errors import DataError, SamplingPeriodWarning
 
-__all__ = ["Clock", "find_clock", "looks_like_time", "period_kind", "stated_period", "period_notice"]
+__all__ = ["Clock", "find_clock", "looks_like_time", "named_unit", "period_kind", "stated_period", "period_notice"]
 
 # Words a time column's name is made of (besides units): English, German, French,
 # Spanish, Italian and Scandinavian names for time and date.
@@ -48,6 +48,10 @@ UNIT_WORDS = frozenset({
     "millisecond", "milliseconds", "minute", "minutes", "hour", "hours", "utc", "gmt",
     "local", "unix", "epoch", "abs", "rel", "since", "start", "sek",
 })
+# The unit each unit word of a time column's name stands for (``Time [s]``, ``t_ms``).
+UNIT_OF_WORD = {"s": "s", "sec": "s", "secs": "s", "second": "s", "seconds": "s", "sek": "s", "sekunden": "s",
+                "ms": "ms", "msec": "ms", "millisecond": "ms", "milliseconds": "ms", "us": "µs", "µs": "µs",
+                "ns": "ns", "min": "min", "minute": "min", "minutes": "min", "h": "h", "hour": "h", "hours": "h"}
 PERIOD_NAMES = frozenset({"ts", "dt", "sample time", "sampling time", "sample period",
                           "sampling period", "sample interval", "sampling interval"})
 RATE_NAMES = frozenset({"fs", "rate", "sample rate", "sampling rate", "sample frequency",
@@ -80,6 +84,19 @@ class Clock:
 
 def _words(text: str) -> list[str]:
     return [word for word in WORD_SPLIT.split(CAMEL.sub(" ", text).lower()) if word]
+
+
+def named_unit(name: str) -> str | None:
+    """The time unit a time column's name states, or None.
+
+    Examples
+    --------
+    >>> [named_unit(n) for n in ("Time [s]", "t (ms)", "time_min", "Zeit", "Timestamp (UTC)")]
+    ['s', 'ms', 'min', None, None]
+    """
+    words = WORD_SPLIT.split(CAMEL.sub(" ", name.strip()).lower())
+    found = [UNIT_OF_WORD[word] for word in words if word in UNIT_OF_WORD]
+    return found[-1] if found else None
 
 
 def looks_like_time(name: str) -> bool:

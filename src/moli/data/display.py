@@ -11,8 +11,8 @@ from __future__ import annotations
 import math
 from typing import Any
 
-__all__ = ["figure_label", "console_text", "report_name", "spreadsheet_cell", "FIGURE_LABEL_CHARS",
-           "REPORT_NAME_CHARS"]
+__all__ = ["figure_label", "console_text", "report_name", "spreadsheet_cell", "time_label", "frequency_label", "angular_unit",
+           "period_text", "FIGURE_LABEL_CHARS", "REPORT_NAME_CHARS"]
 
 # Longer names are cut in figures: a title or axis label is a few inches wide, and
 # matplotlib lays out text in time that grows with its length.
@@ -106,3 +106,35 @@ def spreadsheet_cell(value: Any) -> Any:
         pass
     return "'" + value
 
+
+def time_label(unit: str | None, what: str = "time") -> str:
+    """An axis label of time in the record's unit (``IOData.time_unit``, a model's
+    ``info["time_unit"]``): "time (s)", or "time" where no unit was stated.
+
+    >>> time_label("s"), time_label(None)
+    ('time (s)', 'time')
+    """
+    return what if unit is None else f"{what} ({unit})"
+
+
+def angular_unit(unit: str | None) -> str:
+    """Radians per the record's time unit: "rad/s", or "rad per time unit" where none was stated."""
+    return f"rad/{unit}" if unit is not None else "rad per time unit"
+
+
+def frequency_label(unit: str | None) -> str:
+    """An axis label of angular frequency in the record's time unit.
+
+    >>> frequency_label("ms"), frequency_label(None)
+    ('frequency (rad/ms)', 'frequency (rad per time unit)')
+    """
+    return f"frequency ({angular_unit(unit)})"
+
+
+def period_text(Ts: float, unit: str | None) -> str:
+    """A sampling period with its unit: "0.1 s", or "0.1" where no unit was stated.
+
+    >>> period_text(0.1, "s")
+    '0.1 s'
+    """
+    return f"{Ts:g}" if unit is None else f"{Ts:g} {unit}"

@@ -84,6 +84,9 @@ class IOData:
         gaps included, never resampled): finite and strictly increasing within each
         segment; they may restart at a segment's first sample. Default: none, the
         samples are ``Ts`` apart.
+    time_unit : str, optional
+        The unit of ``Ts`` and ``times`` ("s", "ms", ...: a reader takes it from the time
+        column), for axes and tables; None: "time unit".
 
     Notes
     -----
@@ -118,6 +121,7 @@ class IOData:
         *,
         segment_starts: Sequence[int] | None = None,
         times: object = None,
+        time_unit: str | None = None,
     ) -> None:
         y_arr = as_signal("y", y, missing=True)
         u_arr = as_signal("u", u, missing=True)
@@ -145,6 +149,9 @@ class IOData:
         self.input_names = _names(input_names, u_arr.shape[1], "u", "input_names")
         self.y_offset = np.zeros(self.p)
         self.u_offset = np.zeros(self.m)
+        if time_unit is not None and not isinstance(time_unit, str):
+            raise DataError(f"time_unit must be a str such as 's', got {type(time_unit).__name__}")
+        self.time_unit = time_unit
 
     @property
     def y(self) -> np.ndarray:
@@ -217,7 +224,7 @@ class IOData:
         this record's stamps of them (all when None)."""
         stamps = None if self._times is None else self._times if rows is None else self._times[rows]
         new = IOData(y, u, self.Ts, self.output_names, self.input_names,
-                     segment_starts=self._starts if starts is None else starts, times=stamps)
+                     segment_starts=self._starts if starts is None else starts, times=stamps, time_unit=self.time_unit)
         new.y_offset = np.array(y_offset, dtype=float)
         new.u_offset = np.array(u_offset, dtype=float)
         return new
@@ -370,7 +377,8 @@ def merge(records: Sequence[IOData]) -> IOData:
         total += record.N
     stamps = joined_times([r.times for r in records])
     merged = IOData(np.concatenate([r.y for r in records]), np.concatenate([r.u for r in records]), first.Ts,
-                    first.output_names, first.input_names, segment_starts=starts, times=stamps)
+                    first.output_names, first.input_names, segment_starts=starts, times=stamps,
+                    time_unit=first.time_unit if len({r.time_unit for r in records}) == 1 else None)
     merged.y_offset, merged.u_offset = first.y_offset.copy(), first.u_offset.copy()
     return merged
 

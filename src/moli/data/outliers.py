@@ -170,6 +170,6 @@ def remove_outliers(data: IOData, threshold: float = OUTLIER_THRESHOLD) -> IODat
         clean = ~mask[:, j] & np.isfinite(columns[:, j])
         columns[mask[:, j], j] = np.interp(k[mask[:, j]], k[clean], columns[clean, j])
     cleaned = IOData(columns[:, : data.p], columns[:, data.p:], data.Ts, data.output_names, data.input_names,
-                     segment_starts=data.segment_starts, times=data.times)
+                     segment_starts=data.segment_starts, times=data.times, time_unit=data.time_unit)
     cleaned.y_offset, cleaned.u_offset = data.y_offset.copy(), data.u_offset.copy()
     return cleaned

@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Callable, Mapping, Sequence
 import numpy as np
 
 from .cells import is_missing, parse_numbers
-from .clocks import find_clock, looks_like_time, period_kind, period_notice, stated_period
+from .clocks import find_clock, looks_like_time, named_unit, period_kind, period_notice, stated_period
 from .iodata import IOData
 from .timing import (
     TIME_TOLERANCE, check_period, check_tolerance, datetimes_to_seconds,
@@ -207,7 +207,7 @@ def _seconds(table: Table, name: str, time_format: str | None) -> tuple[np.ndarr
     if time_format is None:
         numbers, bad = parse_numbers(values, table.decimal)
         if bad is None:
-            return numbers, ""
+            return numbers, "" if (unit := named_unit(name)) is None else f" {unit}"
     stamps, bad_stamp = iso_to_seconds(values, time_format)
     if bad_stamp is None:
         return stamps, " s"
@@ -224,10 +224,10 @@ def _seconds(table: Table, name: str, time_format: str | None) -> tuple[np.ndarr
 
 
 def _period(table: Table, request: Request, channels: Sequence[str], samples: int) -> tuple[
-        float, np.ndarray | None, IrregularSamplingWarning | None, SamplingPeriodWarning | None]:
-    """The period of the record, its time stamps (None without a time column), the
-    warning about irregular steps, and the notice of where the period came from when
-    the caller gave none."""
+        float, np.ndarray | None, str, IrregularSamplingWarning | None, SamplingPeriodWarning | None]:
+    """The period of the record, its time stamps (None without a time column), their unit (" s",
+    "" where unstated), the warning about irregular steps, and the notice of where the period
+    came from when the caller gave none."""
     if isinstance(request.time_column, str) and request.time_column not in table.columns:
         raise DataError(f"{table.source} has no time column {request.time_column!r}; "
                         f"columns: {_listing(table)}")
@@ -237,7 +237,7 @@ def _period(table: Table, request: Request, channels: Sequence[str], samples: in
     chosen = request.Ts is None and table.Ts is None      # moli chose the period: say how
     if clock.time is None:
         Ts = 1.0 if Ts is None else Ts
-        return Ts, None, None, period_notice(table.source, clock, Ts, "") if chosen else None
+        return Ts, None, "", None, period_notice(table.source, clock, Ts, "") if chosen else None
     name = clock.time
     seconds, unit = _seconds(table, name, request.time_format)
     if len(seconds) != samples:
@@ -254,19 +254,17 @@ def _period(table: Table, request: Request, channels: Sequence[str], samples: in
     period, gaps = sampling_period(seconds, Ts, request.tolerance, where, stated or "given")
     notice = period_notice(table.source, clock, period, unit) if chosen else None
     if not gaps:
-        return period, seconds, None, notice
-    return period, seconds, irregular_warning(gaps, period, samples, request.tolerance, table.source,
+        return period, seconds, unit, None, notice
+    return period, seconds, unit, irregular_warning(gaps, period, samples, request.tolerance, table.source,
                                               table.row, unit=unit), notice
 
 
 def record(table: Table, request: Request) -> IOData:
     """The record a table holds; irregular time steps warn the public function's caller.
 
-    The record carries the time column's stamps as read (seconds since the first
-    sample for date-times), its segments starting at the gaps.
-
-    Called straight from each public reader, so the warning points at the line that
-    called that reader.
+    The record carries the time column's stamps as read (seconds since the first sample for
+    date-times) and their unit, its segments starting at the gaps. Called straight from each
+    public reader, so the warning points at the line that called that reader.
     """
     inputs, outputs = _channels(table, request)
     columns = {name: _numbers(table, name) for name in (*inputs, *outputs)}
@@ -277,12 +275,13 @@ def record(table: Table, request: Request) -> IOData:
     if lengths == {0}:
         raise DataError(f"{table.source} has no data rows")
     _check_missing(table, list(columns), list(columns.values()))
-    Ts, times, warning, notice = _period(table, request, list(columns), lengths.pop())
+    Ts, times, unit, warning, notice = _period(table, request, list(columns), lengths.pop())
     u = np.column_stack([columns[name] for name in inputs])
     y = np.column_stack([columns[name] for name in outputs])
     # a gap in the clock is a segment boundary, like a missing sample
     starts = None if warning is None else gap_starts(warning.gaps, Ts)
-    data = IOData(y, u, Ts, output_names=outputs, input_names=inputs, segment_starts=starts, times=times)
+    data = IOData(y, u, Ts, output_names=outputs, input_names=inputs, segment_starts=starts, times=times,
+                  time_unit=unit.strip() or None)
     for found in (warning, notice):
         if found is not None:
             warnings.warn(found, stacklevel=3)

@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..data.display import period_text
 from ..data.iodata import IOData
 from ..models.statespace import StateSpaceModel
 from .options.identify_options import IdentifyOptions
@@ -104,7 +105,7 @@ class IdentificationResult:
         head += f"{'mean VAF':>10}{'wc':>9}{'zeta':>7}{'stable':>8}{'sec':>8}"
         lines = [
             f"moli identification: {self.estimation.p} outputs, {self.estimation.m} inputs, "
-            f"Ts = {self.estimation.Ts:g}",
+            f"Ts = {period_text(self.estimation.Ts, self.estimation.time_unit)}",
             f"estimation: {self.estimation.N} samples{_in_segments(self.estimation)}" + (
                 f" (searched on the first {searched})" if (searched := self.model.info.get("search_samples")) else "")
             + f"; validation: {self.validation.N} samples{_in_segments(self.validation)} ({self.validation_source})",

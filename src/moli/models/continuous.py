@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
+from ..data.display import angular_unit
 from ..data.atomic_files import write_atomic
 from ..errors import DataError, OptionError
 from .bands import magnitude_bands, step_bands
@@ -265,7 +266,7 @@ class ContinuousModel(Dimensions):
 
     def pole_table(self) -> list[str]:
         """Lines describing each pole: time constant, or natural frequency and damping; then the static gains."""
-        lines = ["poles (rad per time unit):"]
+        lines = [f"poles ({angular_unit(self.info.get('time_unit'))}):"]
         for pole in sorted(self.poles(), key=lambda z: (abs(z), z.imag)):
             if pole.imag < 0:
                 continue

@@ -275,7 +275,7 @@ def without_reference(data: IOData, reference: tuple[str, ...]) -> IOData:
 def _with_inputs(data: IOData, u: np.ndarray, plant: list[int]) -> IOData:
     """``data``'s outputs, segments and stamps with ``u`` as the inputs at positions ``plant``."""
     record = IOData(data.y, u, data.Ts, data.output_names, [data.input_names[j] for j in plant],
-                    segment_starts=data.segment_starts, times=data.times)
+                    segment_starts=data.segment_starts, times=data.times, time_unit=data.time_unit)
     record.y_offset = data.y_offset.copy()
     record.u_offset = data.u_offset[plant].copy()
     return record

@@ -181,8 +181,9 @@ def identify_continuous(estimation: IOData, validation: IOData, source: str, opt
     except DataError as exc:
         model, note = step.model, str(exc)
     # what the sampled pipeline records on its model: the options, the hold to simulate it with
+    unit = {} if estimation.time_unit is None else {"time_unit": estimation.time_unit}   # for axes and tables
     model = replace(model, input_hold=opts.input_hold, info={**model.info, "options": opts.to_dict(),
-                                                             "validation_vaf": step.vaf.tolist()})
+                                                             "validation_vaf": step.vaf.tolist(), **unit})
     warn_if_no_better_than_mean(model, validation, opts.x0, stacklevel=3)
     return ContinuousResult(model, path, chosen, opts, source, time.perf_counter() - start,
                             estimation, validation, note)

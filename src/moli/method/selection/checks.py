@@ -224,8 +224,8 @@ def warn_if_no_better_than_mean(model: StateSpaceModel, validation: IOData, x0: 
              else f"output{'s' if len(lost) > 1 else ''} {names}")
     warnings.warn(
         f"the model fits {which} no better than {'its' if len(lost) == 1 else 'their'} mean on the "
-        "validation data: whatever order was selected, "
-        "it explains nothing of them that the record can show; check that the right channels are inputs "
+        f"validation data: whatever order was selected, it explains nothing of {'it' if len(lost) == 1 else 'them'} "
+        "that the record can show; check that the right channels are inputs "
         "and outputs, or give a longer or better excited record",
         NoFitWarning, stacklevel=stacklevel + 1,
     )
