@@ -172,16 +172,17 @@ def test_a_warning_of_every_record_is_told_once_with_the_paths_as_given(tmp_path
     plant = tmp_path / "plant"
     plant.mkdir()
     for k in range(3):
-        moli.to_dataframe(moli.example_data(N=400, seed=k)).rename_axis("Time [s]").to_csv(plant / f"loop{k}.csv")
+        # no time column: each record warns that Ts = 1 is assumed, the same words but for its file
+        moli.to_dataframe(moli.example_data(N=400, seed=k)).to_csv(plant / f"loop{k}.csv", index=False)
     monkeypatch.chdir(tmp_path)
     done = run("fit-many", "plant/*.csv", *CHANNELS, "--nmax", "4", "--workers", "2", "--out", "models")
     assert done.exit_code == 0, done.output + done.stderr
-    told = [line for line in done.stderr.splitlines() if "from the time column 'Time [s]'" in line]
-    assert len(told) == 1 and told[0].startswith("  warning: 3 records (loop0, loop1, loop2): <file>: Ts = 1")
+    told = [line for line in done.stderr.splitlines() if "Ts = 1 is assumed" in line]
+    assert len(told) == 1 and told[0].startswith("  warning: 3 records (loop0, loop1, loop2): <file>: no time column")
     page = (tmp_path / "models" / "summary.html").read_text()
-    assert page.count("from the time column") == 1 and "<b>W1</b>, 3 records (loop0, loop1, loop2)" in page
+    assert page.count("Ts = 1 is assumed") == 1 and "<b>W1</b>, 3 records (loop0, loop1, loop2)" in page
     table = rows(tmp_path / "models" / "summary.csv")
-    assert table["loop0"]["warnings"].startswith("plant/loop0.csv: Ts = 1")  # the CSV keeps each row's own
+    assert table["loop0"]["warnings"].startswith("plant/loop0.csv: no time column")  # the CSV keeps each row's own
     for text in (done.stderr, page, (tmp_path / "models" / "summary.csv").read_text()):
         assert str(tmp_path) not in text and os.sep + "plant" not in text  # no absolute path
 
