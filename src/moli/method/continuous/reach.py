@@ -5,6 +5,7 @@ from __future__ import annotations
 from ...data.iodata import IOData
 from ...errors import DataError
 from ..structure.indices import Indices, generic_indices
+from ..structure.rows import largest_fitting
 from .estimation import StampedRecord, stamped_record
 
 __all__ = ["largest_continuous_order", "check_continuous_reach"]
@@ -20,19 +21,7 @@ def _feasible(record: StampedRecord, indices: Indices) -> bool:
 
 def largest_continuous_order(record: StampedRecord) -> int:
     """The largest order whose cheapest list (the generic one) the record can estimate; ``p - 1`` when none."""
-    p = record.p
-
-    def fits(n: int) -> bool:
-        return _feasible(record, generic_indices(n, p))
-
-    # double a bound past the answer, then bisect: an nmax of 10^5 is answered in microseconds
-    low, high = p - 1, p
-    while fits(high):
-        low, high = high, 2 * high
-    while high - low > 1:
-        middle = (low + high) // 2
-        low, high = (middle, high) if fits(middle) else (low, middle)
-    return low
+    return largest_fitting(lambda n: _feasible(record, generic_indices(n, record.p)), record.p)
 
 
 def check_continuous_reach(nmax: int | None, order: int | None, estimation: IOData) -> None:

@@ -8,14 +8,15 @@ transient's end on, and no regressor row spans a boundary (docs/method.md §3).
 from __future__ import annotations
 
 from itertools import accumulate
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
 from ...errors import DataError
 from .indices import Indices, generic_indices, parameter_counts
 
-__all__ = ["regression_rows", "row_count", "row_breaks", "samples_needed", "largest_order", "check_sample_count",
+__all__ = ["regression_rows", "row_count", "row_breaks", "samples_needed", "largest_order", "largest_fitting",
+           "check_sample_count",
            "check_regression_rows"]
 
 
@@ -53,11 +54,20 @@ def largest_order(N: int, p: int, m: int, feedthrough: bool = False) -> int:
     """The largest order whose cheapest list (the balanced one, longer indices first: the
     generic list, :func:`moli.method.structure.indices.generic_indices`) ``N`` samples can estimate;
     ``p - 1`` when none can."""
-    def fits(n: int) -> bool:
-        return samples_needed(generic_indices(n, p), m, feedthrough) <= N
+    return largest_fitting(lambda n: samples_needed(generic_indices(n, p), m, feedthrough) <= N, p)
 
-    # the samples needed grow with the order: double a bound past the answer, then bisect
-    # (a long record reaches orders in the hundred thousands: stepping one by one took seconds)
+
+def largest_fitting(fits: Callable[[int], bool], p: int) -> int:
+    """The largest order ``n >= p`` with ``fits(n)``, for a ``fits`` true up to some order and false
+    beyond; ``p - 1`` when ``fits(p)`` is false.
+
+    The samples an order needs grow with it: a bound is doubled past the answer, then bisected (a
+    long record reaches orders in the hundred thousands, which stepping one by one took seconds to
+    find).
+
+    >>> largest_fitting(lambda n: n <= 37, 2), largest_fitting(lambda n: False, 3)
+    (37, 2)
+    """
     low, high = p - 1, p
     while fits(high):
         low, high = high, 2 * high
