@@ -26,7 +26,7 @@ LAYERS = ("errors", "numerics", "data", "models", "validation", "method", "strea
 # package and the stages before it. options/ comes after the stages whose choices it lists
 # and before those that read it; pipeline/ holds identify()'s steps, which call them all;
 # the modules at method/'s root (identification, result) sit above every stage.
-METHOD_STAGES = ("structure", "least_squares", "tuning", "options", "search", "refinement", "closed_loop",
+METHOD_STAGES = ("structure", "least_squares", "kernel", "tuning", "options", "search", "refinement", "closed_loop",
                  "uncertainty", "selection", "continuous", "pipeline")
 # method/'s root holds only the entry point, its result and the package's names.
 METHOD_ROOT = {"__init__", "identification", "result"}

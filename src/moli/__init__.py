@@ -39,6 +39,7 @@ _HOMES = {
     "filter_polynomial": "method", "IdentificationResult": "method", "identify": "method",
     "IdentifyOptions": "method", "PathStep": "method", "estimate_noise_model": "method",
     "estimate_covariance": "method", "ContinuousResult": "method",
+    "impulse_response": "method", "ImpulseResponse": "method",
     "identify_many": "fleets", "FleetResult": "fleets", "estimate_chunks": "fleets",
     "RecursiveMoli": "streaming", "ChunkedEstimator": "streaming", "FilterBank": "streaming",
     "example_data": "systems", "example_plant": "systems", "experiment": "systems",
@@ -62,8 +63,8 @@ if TYPE_CHECKING:  # what the lazy names are, for type checkers and IDEs
     )
     from .fleets import FleetResult, estimate_chunks, identify_many
     from .method import (
-        ContinuousResult, IdentificationResult, IdentifyOptions, PathStep, divisor, divisors, estimate,
-        estimate_covariance, estimate_noise_model, filter_polynomial, identify,
+        ContinuousResult, IdentificationResult, IdentifyOptions, ImpulseResponse, PathStep, divisor, divisors,
+        estimate, estimate_covariance, estimate_noise_model, filter_polynomial, identify, impulse_response,
     )
     from .models import ContinuousModel, StateSpaceModel, load_model
     from .streaming import ChunkedEstimator, FilterBank, RecursiveMoli

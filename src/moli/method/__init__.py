@@ -13,6 +13,7 @@ time, docs/continuous.md) and :mod:`.pipeline` (the steps of :func:`identify`, i
 """
 
 from .continuous import ContinuousResult, ContinuousStep
+from .kernel.impulse import ImpulseResponse, impulse_response
 from .least_squares.estimation import estimate
 from .least_squares.realization import realize
 from .structure.filters import divisor, divisors, filter_polynomial
@@ -31,4 +32,5 @@ __all__ = [
     "identify", "IdentifyOptions", "estimate_noise_model", "RefineResult", "refine", "refine_each", "PathStep", "exhaustive",
     "TuningResult", "default_omega", "tune_filter", "estimate_covariance",
     "ContinuousResult", "ContinuousStep", "prediction_error_refine", "ReferenceProjection", "fit_projection",
+    "ImpulseResponse", "impulse_response",
 ]

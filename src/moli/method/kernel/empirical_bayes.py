@@ -1,0 +1,146 @@
+"""Empirical Bayes for one output: the kernels' hyperparameters and the noise variance that
+maximize the marginal likelihood, and the posterior of the impulse response they give.
+
+With ``y = Phi g + e``, ``g ~ N(0, K)`` and ``e ~ N(0, sigma^2 I)``, the marginal likelihood
+of ``y`` needs ``Sigma = sigma^2 I + Phi K Phi^T`` (``N x N``). From ``R`` of ``[Phi | y]``
+(``R1``, ``r2``, ``r3``, :mod:`.fir_rows`) and a square root ``K = L L^T``, the QR of the
+``2d x (d + 1)`` matrix ``[[R1 L, r2], [sigma I, 0]]`` gives ``[[Q1, q2], [0, q3]]`` with
+(Chen and Ljung 2013)
+
+- ``y^T Sigma^-1 y = (r3^2 + q3^2) / sigma^2``,
+- ``log det Sigma = (N - d) log sigma^2 + 2 sum log |diag Q1|``,
+- the posterior mean ``L Q1^-1 q2`` and covariance ``sigma^2 L Q1^-1 Q1^-T L^T``,
+
+so one evaluation costs one QR of ``d + 1`` columns, never an ``N x N`` matrix.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg
+import scipy.optimize
+
+from .fir_rows import FirFactor
+from .kernels import ARTANH_BOUND, LOGIT_BOUND, hyperparameter_count, kernel_matrix, square_root
+
+__all__ = ["OutputFit", "fit_output", "neg_log_likelihood"]
+
+# Decays per sample tried, one for every input, before the search: the best of them starts it.
+START_DECAYS = (0.3, 0.6, 0.8, 0.9, 0.95, 0.98)
+# log c and log sigma^2 are searched within this many nepers of their start.
+LOG_RANGE = 25.0
+# The search ends when a step lowers -2 log p(y) by less than this share of it: 1e-12 of values
+# of order N is far below the 1 that separates hyperparameters worth telling apart.
+FTOL = 1e-12
+
+
+@dataclass(frozen=True)
+class OutputFit:
+    """One output's estimate: the coefficients (input-major), a covariance factor ``F``
+    (``cov = F F^T``), the noise variance and each input's kernel coordinates."""
+
+    coefficients: np.ndarray
+    cov_factor: np.ndarray
+    noise_variance: float
+    coordinates: tuple[np.ndarray, ...]
+    neg_log_likelihood: float
+
+
+def _root(kind: str, lags: np.ndarray, coordinates: list[np.ndarray]) -> np.ndarray:
+    """The block-diagonal square root of the prior of every input's coefficients."""
+    return scipy.linalg.block_diag(*[square_root(kernel_matrix(kind, lags, z)) for z in coordinates])
+
+
+def _posterior_factor(factor: FirFactor, j: int, L: np.ndarray, sigma: float) -> np.ndarray:
+    d = L.shape[0]
+    stacked = np.zeros((2 * d, d + 1))
+    stacked[:d, :d] = factor.R1 @ L
+    stacked[:d, d] = factor.r2[:, j]
+    stacked[d:, :d] = sigma * np.eye(d)
+    return scipy.linalg.qr(stacked, mode="r")[0][: d + 1]
+
+
+def neg_log_likelihood(factor: FirFactor, j: int, L: np.ndarray, sigma2: float) -> float:
+    """``-2 log p(y_j)`` up to a constant, for the prior square root ``L`` and noise variance ``sigma2``."""
+    d = L.shape[0]
+    Q = _posterior_factor(factor, j, L, np.sqrt(sigma2))
+    diagonal = np.abs(np.diag(Q)[:d])
+    if np.any(diagonal == 0) or not np.isfinite(Q).all():
+        return np.inf
+    return float((factor.r3[j] ** 2 + Q[d, d] ** 2) / sigma2 + (factor.rows - d) * np.log(sigma2)
+                 + 2.0 * np.sum(np.log(diagonal)))
+
+
+def _split(kind: str, m: int, x: np.ndarray) -> tuple[list[np.ndarray], float]:
+    size = hyperparameter_count(kind)
+    return [x[i * size:(i + 1) * size] for i in range(m)], float(np.exp(x[-1]))
+
+
+def fit_output(factor: FirFactor, j: int, kind: str, lags: np.ndarray, scales: np.ndarray) -> OutputFit:
+    """Output ``j``'s marginal-likelihood estimate with ``kind`` kernels (one per input), or its
+    least squares with ``kind = "none"``.
+
+    Parameters
+    ----------
+    factor : FirFactor
+    j : int
+    kind : {"TC", "DC", "SS", "none"}
+    lags : ndarray of int
+    scales : ndarray, shape (m,)
+        Each input's variance, for the start of the kernels' scales.
+
+    Returns
+    -------
+    OutputFit
+    """
+    m, d = len(scales), factor.R1.shape[0]
+    if kind == "none":
+        coefficients = scipy.linalg.solve_triangular(factor.R1, factor.r2[:, j])
+        sigma2 = factor.r3[j] ** 2 / (factor.rows - d)
+        inverse = scipy.linalg.solve_triangular(factor.R1, np.eye(d))
+        return OutputFit(coefficients, np.sqrt(sigma2) * inverse, sigma2, (), np.nan)
+    # the output's variance about zero sets the starts: noise at half of it, each input's
+    # gain scale so that the prior's output variance is the other half
+    total = (np.sum(factor.r2[:, j] ** 2) + factor.r3[j] ** 2) / max(factor.rows, 1)
+    total = total if total > 0 else 1.0
+    size = hyperparameter_count(kind)
+    best = None
+    for decay in START_DECAYS:
+        start = []
+        for scale in scales:
+            z = np.zeros(size)
+            z[0] = np.log(0.5 * total * (1.0 - decay) / (m * max(scale, 1e-300)))
+            z[1] = np.log(decay / (1.0 - decay))
+            start.append(z)
+        x = np.concatenate([*start, [np.log(0.5 * total)]])
+        value = _objective(x, factor, j, kind, lags, m)
+        if best is None or value < best[1]:
+            best = (x, value)
+    x0 = best[0]
+    bounds = []
+    for i in range(m):
+        bounds += [(x0[i * size] - LOG_RANGE, x0[i * size] + LOG_RANGE), LOGIT_BOUND] + \
+                  ([ARTANH_BOUND] if kind == "DC" else [])
+    bounds.append((x0[-1] - LOG_RANGE, x0[-1] + LOG_RANGE))
+    low, high = np.array(bounds).T
+    # the search is unbounded and the coordinates clipped inside the objective: L-BFGS-B's
+    # projected first step stalled at the start on records where the likelihood falls steeply
+    found = scipy.optimize.minimize(lambda x: _objective(np.clip(x, low, high), factor, j, kind, lags, m), x0,
+                                    method="L-BFGS-B", options={"ftol": FTOL})
+    x = np.clip(found.x, low, high) if found.fun <= best[1] else x0
+    coordinates, sigma2 = _split(kind, m, x)
+    L = _root(kind, lags, coordinates)
+    Q = _posterior_factor(factor, j, L, np.sqrt(sigma2))
+    # posterior mean L Q1^-1 q2 and covariance factor sigma L Q1^-1 (Q1 is upper triangular)
+    Q1 = Q[:d, :d]
+    coefficients = L @ scipy.linalg.solve_triangular(Q1, Q[:d, d])
+    cov_factor = np.sqrt(sigma2) * scipy.linalg.solve_triangular(Q1.T, L.T, lower=True).T
+    return OutputFit(coefficients, cov_factor, sigma2, tuple(coordinates), float(min(found.fun, best[1])))
+
+
+def _objective(x: np.ndarray, factor: FirFactor, j: int, kind: str, lags: np.ndarray, m: int) -> float:
+    coordinates, sigma2 = _split(kind, m, x)
+    with np.errstate(all="ignore"):
+        return neg_log_likelihood(factor, j, _root(kind, lags, coordinates), sigma2)
