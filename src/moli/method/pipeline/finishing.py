@@ -85,7 +85,8 @@ def record_of_making(selection: PathSelection, prepared: Prepared, skipped: tupl
                              for step in selection.path]
     model = selection.step.model
     model.info["options"] = prepared.options.to_dict()
-    model.info["closed_loop"] = loop_record(prepared.loop, prepared.projection, prepared.feedback)
+    model.info["closed_loop"] = loop_record(prepared.loop, prepared.projection, prepared.feedback,
+                                            prepared.options.closed_loop)
     return model
 
 
