@@ -171,8 +171,8 @@ def test_open_loop_records_of_the_same_plant_are_not_reproduced_exactly():
         # 1e-50: never
         assert check.exact == ()
         alarms += check.detected
-    # the F-test at level 0.01 (measured 1 alarm in 60 records): 5 or more of 100 would
-    # happen with probability 0.003 if it kept its level; the criterion asks at most 2 %
+    # the F-test at level 0.01 (measured: 2 alarms in these 100 records): 5 or more of 100
+    # would happen with probability 0.003 if it kept its level
     assert alarms <= 4
 
 

@@ -80,8 +80,8 @@ class FeedbackCheck:
     exact : tuple of str
         Inputs that the outputs and the inputs' past reproduce exactly in at least two
         windows of the record: the output of a controller that adds no noise of its own.
-    untested : tuple of str
-        Per input with a NaN p-value, why the F-test cannot tell.
+    untested : tuple of (str, str)
+        Per input with a NaN p-value, its name and why the F-test cannot tell.
     """
 
     detected: bool
@@ -91,7 +91,7 @@ class FeedbackCheck:
     input_names: tuple[str, ...]
     lag_zero: bool = True
     exact: tuple[str, ...] = ()
-    untested: tuple[str, ...] = ()
+    untested: tuple[tuple[str, str], ...] = ()
 
     @property
     def flagged(self) -> tuple[str, ...]:
@@ -126,7 +126,7 @@ class FeedbackCheck:
         if not self.undecided:
             return None
         one = len(self.undecided) == 1
-        reasons = [line for line in self.untested if line.split(":")[0] in self.undecided]
+        reasons = [f"{name}: {why}" for name, why in self.untested if name in self.undecided]
         return (f"the feedback check cannot tell whether {', '.join(self.undecided)} depend{'s' if one else ''} on "
                 f"the outputs: {'; '.join(reasons)}; and the outputs do not reproduce {'it' if one else 'them'} "
                 f"exactly. {'It counts' if one else 'They count'} as open-loop: if the record is closed-loop, "
@@ -264,7 +264,7 @@ def _innovations(data: IOData, L: int) -> np.ndarray:
     return target - X @ np.linalg.lstsq(X, target, rcond=None)[0]
 
 
-def _pvalues(data: IOData, L: int, lag_zero: bool) -> tuple[np.ndarray, tuple[str, ...]]:
+def _pvalues(data: IOData, L: int, lag_zero: bool) -> tuple[np.ndarray, tuple[tuple[str, str], ...]]:
     """Per input, the F-test p-value of the output innovations, from one QR shared by all inputs;
     and, per input left untested (NaN), why."""
     m = data.m
@@ -301,8 +301,8 @@ def _pvalues(data: IOData, L: int, lag_zero: bool) -> tuple[np.ndarray, tuple[st
             continue
         if spread[j] < added:  # too few changes to test
             pvalues[j] = np.nan
-            untested.append(f"{data.input_names[j]}: its changes are spread over {spread[j]:.0f} samples, fewer "
-                            f"than the {added} columns the F-test adds (set-point steps or rare switches)")
+            untested.append((data.input_names[j], f"its changes are spread over {spread[j]:.0f} samples, fewer "
+                             f"than the {added} columns the F-test adds (set-point steps or rare switches)"))
             continue
         F = (rss_restricted - rss_full) / added / (rss_full / dof)
         pvalues[j] = scipy.special.fdtrc(added, dof, F)  # F survival function

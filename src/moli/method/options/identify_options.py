@@ -178,8 +178,10 @@ class IdentifyOptions:
         loop were open; by the two-stage method (the part of each input that the
         ``reference`` explains replaces the input); or by the direct prediction-error
         method (the model and its Kalman gain jointly). None (the default): "two-stage"
-        when a ``reference`` is named, else "open", which warns when the record looks
-        closed-loop.
+        when a ``reference`` is named; else "direct" where the feedback check finds an
+        input that the outputs reproduce exactly (a controller's output) and
+        ``feedthrough`` is not True; else "open", which warns when the record looks
+        closed-loop. "open" keeps the open-loop fit whatever the check finds.
 
     Examples
     --------
