@@ -19,7 +19,7 @@ from ...validation.feedback import FeedbackCheck, checked_feedback, usable_lags
 from ..options.identify_options import IdentifyOptions
 from .reference_projection import ReferenceProjection
 
-__all__ = ["loop_method", "feedback_found", "warn_feedback", "loop_record", "FEEDBACK_SAMPLES"]
+__all__ = ["loop_method", "feedback_found", "warn_feedback", "loop_record", "FEEDBACK_SAMPLES", "FEEDBACK_LEVEL"]
 
 # Samples of the estimation record the feedback check looks at.
 FEEDBACK_SAMPLES = 3000
@@ -32,10 +32,10 @@ def loop_method(options: IdentifyOptions, feedback: FeedbackCheck | None = None)
 
     With no method asked for and no reference named, the direct method where ``feedback``
     found a controller's output (:attr:`FeedbackCheck.exact`) and no feedthrough is asked
-    for, else the open-loop one. The two-stage method selects its order by the paired rule unless told otherwise
-    (docs/closed_loop.md §4); the direct method estimates no feedthrough, since a
-    controller that reads ``y[k]`` to make ``u[k]`` would let a feedthrough carry ``y[k]``
-    into its own prediction.
+    for, else the open-loop one. The two-stage method selects its order by the paired
+    rule unless told otherwise (docs/closed_loop.md §4); the direct method estimates no
+    feedthrough, since a controller that reads ``y[k]`` to make ``u[k]`` would let a
+    feedthrough carry ``y[k]`` into its own prediction.
 
     Raises
     ------

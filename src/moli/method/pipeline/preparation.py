@@ -15,8 +15,8 @@ import numpy as np
 from ...data.iodata import IOData, longest_segment
 from ...data.quality import screen
 from ...errors import DataError, OptionError
-from ...validation.feedback import FeedbackCheck
 from ...validation.comparison import same_period
+from ...validation.feedback import FeedbackCheck
 from ..closed_loop.loop_method import feedback_found, loop_method, warn_feedback
 from ..closed_loop.reference_projection import FirstStage, ReferenceProjection, two_stage_records, without_reference
 from ..least_squares.estimation import check_sample_count
@@ -158,9 +158,9 @@ def prepare(estimation: IOData, validation: IOData, options: IdentifyOptions) ->
                                       for record in (estimation, validation))
         # a plant told to have feedthrough shows it at lag 0 like feedback: test later lags only
         # (the two-stage method's inputs are projections on the references: nothing to check).
-        # Before the segments and the centring, which the check's intercept and longest
-        # stretch make no difference to, since a controller found turns the default to the
-        # direct method, which estimates no feedthrough
+        # Checked before the segments and the centring (the check's intercept and its longest
+        # stretch make them no difference): a controller found turns the default to the
+        # direct method, whose options (no feedthrough) the segments depend on
         feedback = feedback_found(estimation, lag_zero=options.feedthrough is not True)
         loop, options = loop_method(options, feedback)
     feedthrough = options.feedthrough is not False
