@@ -10,13 +10,16 @@ loop, the plant input of the noise-free closed loop with the same references, wi
 of its own seed. Methods (``--methods``):
 
 - ``open``: default ``moli.identify`` on the open-loop record (the baseline);
-- ``closed_default``: default ``identify`` on the closed-loop record, plant inputs only;
+- ``closed_default``: default ``identify`` on the closed-loop record, plant inputs only (the
+  direct method where the feedback check finds a controller's output, docs/closed_loop.md);
+- ``closed_open``: the same with ``closed_loop="open"``, as if the loop were open;
 - ``two_stage``: ``identify(closed, reference=("r1", "r2"))``;
 - ``direct``: ``identify(closed_inputs, closed_loop="direct")``.
 
 Scores per record: relative static-gain error ``|G_hat(1) - G(1)|_F / |G(1)|_F``, the
 order, the share of (frequency, channel) points where the 95 % magnitude band holds the
-true gain (static gain and 14 frequencies up to Nyquist), the time per fit.
+true gain (static gain and 14 frequencies up to Nyquist), the time per fit; per seed, the
+verdicts of ``moli.feedback_check`` on the estimation part of both records.
 
 Part B, the twin rotor (``moli.systems.TwinRotor`` with encoder and 1e-3 rad noise): per
 seed, the LQ servo and the PID baseline of ``examples/twin_rotor.py`` are designed on the
@@ -28,7 +31,7 @@ held out), as is the open-loop experiment of the same seed; every model is score
 ``moli.compare`` (simulation from rest) on a third seed's open-loop experiment.
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/closed_loop.py [--seeds 50] [--rotor-seeds 10] [--first-seed 0]
-        [--methods open,closed_default,two_stage,direct] [--jobs 2] [--out DIR] [--skip-a] [--skip-b]
+        [--methods open,closed_default,closed_open,two_stage,direct] [--jobs 2] [--out DIR] [--skip-a] [--skip-b]
 
 Prints markdown tables; with ``--out DIR`` writes ``DIR/closed_loop.json`` with a row per
 seed, part, noise or controller, and method. With the defaults and ``--jobs 2`` on two
@@ -88,6 +91,20 @@ def pi_table(rows: list[dict], methods: list[str]) -> list[str]:
                 f"{np.mean(static) if static else np.nan:.3f} | {order_span(orders)} | "
                 f"{sum(not r['stable'] for r in ok)} | "
                 f"{np.median([r['seconds'] for r in ok]):.2f} | {', '.join(infos)} |")
+    return lines
+
+
+def detection_table(rows: list[dict]) -> list[str]:
+    """Part A: the feedback check's verdicts on each seed's closed-loop and open-loop records."""
+    lines = ["| noise | records | closed loop: detected | reproduced exactly | open loop: detected "
+             "| reproduced exactly | cannot tell |", "|---|---|---|---|---|---|---|"]
+    for noise in cases.NOISES:
+        found = fits(rows, noise=noise, method="open")
+        if not found:
+            continue
+        share = {key: np.mean([r[key] for r in found]) for key in found[0] if key.endswith(("_detected", "_exact", "_undecided"))}
+        lines.append(f"| {noise} | {len(found)} | {share['closed_detected']:.3f} | {share['closed_exact']:.3f} | "
+                     f"{share['open_detected']:.3f} | {share['open_exact']:.3f} | {share['open_undecided']:.3f} |")
     return lines
 
 
@@ -178,6 +195,9 @@ def main() -> None:
         print(f"## Part A: 2x2 PI loops, {cases.N} samples, {args.seeds} seeds per noise, "
               f"SNR median {np.median(snr, axis=0).round(1).tolist()} dB (outputs), {seconds['A']:.0f} s\n")
         for line in pi_table(fits(rows, part="A"), methods):
+            print(line)
+        print("\nThe feedback check on the estimation part (first 70 %) of each record:\n")
+        for line in detection_table(fits(rows, part="A")):
             print(line)
         print(flush=True)
     if not args.skip_b:

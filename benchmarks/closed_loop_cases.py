@@ -38,6 +38,7 @@ OMEGA = np.concatenate([[0.0], np.geomspace(0.005, np.pi, 14)])
 METHODS = {
     "open": "open-loop record, default identify",
     "closed_default": "closed-loop record, u only, default identify",
+    "closed_open": "closed-loop record, u only, closed_loop=\"open\" (as if open loop)",
     "two_stage": "closed-loop record, reference=(\"r1\", \"r2\")",
     "direct": "closed-loop record, u only, closed_loop=\"direct\"",
 }
@@ -106,6 +107,8 @@ def fit(method: str, opened: moli.IOData, closed: moli.IOData, closed_inputs: mo
             result = moli.identify(opened, **options)
         elif method == "closed_default":
             result = moli.identify(closed_inputs, **options)
+        elif method == "closed_open":
+            result = moli.identify(closed_inputs, closed_loop="open", **options)
         elif method == "two_stage":
             result = moli.identify(closed, reference=REFERENCES, **options)
         else:
@@ -147,14 +150,24 @@ def quiet(task: Callable[..., list[dict[str, object]]]) -> Callable[..., list[di
     return run
 
 
+def verdict(record: moli.IOData, prefix: str) -> dict[str, bool]:
+    """``moli.feedback_check`` of the estimation part identify holds for itself (the first 70 %):
+    flagged, reproduced exactly (a controller's output), cannot tell."""
+    check = moli.feedback_check(record.split(0.7)[0])
+    return {f"{prefix}_detected": check.detected, f"{prefix}_exact": bool(check.exact),
+            f"{prefix}_undecided": bool(check.undecided)}
+
+
 def pi_seed(seed: int, noise: str, methods: list[str]) -> list[dict[str, object]]:
-    """Part A, one seed and noise type: a row per method."""
+    """Part A, one seed and noise type: a row per method, each with the feedback check's
+    verdicts on the closed-loop record (plant inputs only) and the open-loop one."""
     closed, opened, snr = pi_records(seed, noise)
+    checks = verdict(plant_inputs(closed), "closed") | verdict(opened, "open")
     rows = []
     for method in methods:
         model, seconds, error = fit(method, opened, closed, plant_inputs(closed))
         row = {"part": "A", "noise": noise, "seed": seed, "method": method, "seconds": seconds,
-               "snr_db": snr.tolist(), "error": error}
+               "snr_db": snr.tolist(), "error": error, **checks}
         rows.append(row if model is None else {**row, **gain_scores(model, pi_loop_plant())})
     return rows
 
@@ -162,7 +175,7 @@ def pi_seed(seed: int, noise: str, methods: list[str]) -> list[dict[str, object]
 # -- part B: the twin rotor ---------------------------------------------------------------
 
 DESIGN_SEED, VALIDATION_SEED = 1000, 2000
-ROTOR_METHODS = ("open", "closed_default", "two_stage", "direct")
+ROTOR_METHODS = ("open", "closed_default", "closed_open", "two_stage", "direct")
 # Set-points around the trim: pitch +-0.15 rad, yaw +-0.45 rad (the open-loop experiment
 # swings pitch and yaw by about 0.1 and 0.27 rad sd), inside the rig's envelope (pitch
 # -0.5..1.0, yaw -1.7..1.2 rad) with room for overshoot, held 0.5-2 s: the closed loop

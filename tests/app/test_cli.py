@@ -281,3 +281,18 @@ def test_fit_with_a_reference_column_identifies_the_plant_inputs_by_two_stages(t
                   "--out", str(tmp_path / "other.json"))
     assert refused.exit_code == 2
     assert refused.output.count("moli: error:") == 1 and "needs reference" in refused.output
+
+
+def test_fit_of_a_controllers_output_without_references_says_it_used_the_direct_method(tmp_path):
+    from systems_util import pi_loop
+
+    record = pi_loop(1, N=1500)            # PI loops that add no noise to their outputs
+    table = np.column_stack([record.y, record.u[:, :2]])
+    data = tmp_path / "loop.csv"
+    data.write_text("y1,y2,u1,u2\n" + "\n".join(",".join(f"{v:.17g}" for v in row) for row in table))
+    result = run("fit", str(data), "--inputs", "u1,u2", "--outputs", "y1,y2", "--order", "2",
+                 "--out", str(tmp_path / "model.json"), "--report", str(tmp_path / "report"))
+    assert result.exit_code == 0, result.output
+    assert "closed loop: direct method: feedback detected" in result.output
+    assert "direct method: feedback detected" in (tmp_path / "report" / "report.html").read_text()
+    assert moli.load_model(tmp_path / "model.json").info["closed_loop"]["method"] == "direct"

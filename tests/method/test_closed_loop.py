@@ -34,7 +34,7 @@ def test_the_two_stage_method_removes_the_closed_loop_bias():
     # experiment's (0.07-0.08). Half the biased error leaves room for three seeds' spread.
     records = [pi_loop(seed) for seed in range(3)]
     two_stage = [gain_error(quiet_identify(d, reference=["r1", "r2"], order=2).model) for d in records]
-    biased = [gain_error(quiet_identify(plant_only(d), order=2).model) for d in records]
+    biased = [gain_error(quiet_identify(plant_only(d), order=2, closed_loop="open").model) for d in records]
     assert np.median(two_stage) < 0.5 * np.median(biased)
 
 
@@ -111,7 +111,7 @@ def test_bad_closed_loop_options_are_named(options, error, text):
 
 def test_the_closed_loop_warning_names_the_remedies():
     with pytest.warns(moli.ClosedLoopWarning, match="reference=.*closed_loop='direct'"):
-        moli.identify(plant_only(pi_loop(0, N=1500)), order=2)
+        moli.identify(plant_only(pi_loop(0, N=1500)), order=2, closed_loop="open")
 
 
 def test_the_direct_method_is_consistent_under_white_noise_feedback():
@@ -177,3 +177,48 @@ def test_two_stage_gain_bands_hold_the_true_gain():
         held.append((lower <= truth) & (truth <= upper))
         assert model.info["covariance"]["first_stage"]
     assert np.mean(held) >= 0.75
+
+
+def test_the_default_turns_to_the_direct_method_where_a_controller_is_found():
+    # pi_loop's controllers add no noise to their outputs: the feedback check finds them
+    # exactly (tests/validation/test_feedback.py), and with no reference named the default
+    # must not return the biased open-loop fit
+    data = plant_only(pi_loop(1, N=1500))
+    with pytest.warns(moli.ClosedLoopWarning, match="Identified by the direct method.*closed_loop='open'"):
+        result = moli.identify(data, order=2)
+    loop = result.model.info["closed_loop"]
+    assert loop["method"] == "direct" and loop["chosen"] == "default"
+    assert "reproduce u1, u2 exactly" in loop["feedback"] and "no reference named" in loop["why"]
+    assert "closed loop: direct method: feedback detected" in result.summary()
+    assert result.model.info["options"]["closed_loop"] is None and np.all(result.model.D == 0)
+    # the default is the direct method itself: the same model as asked for by name, to
+    # round-off (both run the same steps on the same record)
+    asked = quiet_identify(data, order=2, closed_loop="direct")
+    assert asked.model.info["closed_loop"]["chosen"] == "asked"
+    for name in ("A", "B", "C", "K"):
+        assert np.allclose(getattr(result.model, name), getattr(asked.model, name), rtol=1e-9, atol=1e-12)
+
+
+def test_closed_loop_open_keeps_the_open_loop_fit():
+    data = plant_only(pi_loop(1, N=1500))
+    with pytest.warns(moli.ClosedLoopWarning, match="look closed-loop"):
+        result = moli.identify(data, order=2, closed_loop="open")
+    loop = result.model.info["closed_loop"]
+    assert loop["method"] == "open" and loop["chosen"] == "asked"
+    assert "identified as if open-loop, though feedback detected" in loop["why"]
+
+
+def test_the_loop_method_follows_the_options_before_the_check():
+    from moli.method.closed_loop.loop_method import loop_method
+    from moli.validation.feedback import FeedbackCheck
+
+    found = FeedbackCheck(True, np.array([np.nan]), 10, 0.01, ("u1",), exact=("u1",))
+    flagged = FeedbackCheck(True, np.array([1e-9]), 10, 0.01, ("u1",))
+    options = moli.IdentifyOptions
+    assert loop_method(options(), found)[0] == "direct"
+    # a flag alone may be a feedthrough (lag 0): the open-loop fit, with its warning
+    assert loop_method(options(), flagged)[0] == "open"
+    # asked for by name, or a feedthrough the direct method cannot estimate: the options win
+    assert loop_method(options(closed_loop="open"), found)[0] == "open"
+    assert loop_method(options(feedthrough=True), found)[0] == "open"
+    assert loop_method(options(reference=("r1",)), found)[0] == "two-stage"

@@ -102,11 +102,103 @@ def test_feedback_check_checks_its_arguments():
     assert check.lags == 3 and check.pvalues.shape == (1,)
 
 
-def test_inputs_that_rarely_change_are_left_untested():
+def test_inputs_that_rarely_change_are_left_untested_and_the_check_says_it_cannot_tell():
     rng = np.random.default_rng(7)
     u = np.where(np.arange(300) < 120, 1.0, -1.0)      # one switch in 300 samples
     y = scipy.signal.lfilter([0.0, 0.5], [1.0, -0.9], u) + 0.1 * rng.standard_normal(300)
-    check = moli.feedback_check(moli.IOData(y, u))
+    with pytest.warns(moli.ClosedLoopWarning, match="cannot tell whether u1 depends on the outputs: u1: its "
+                                                    "changes are spread over 1 samples, fewer than the 11"):
+        check = moli.feedback_check(moli.IOData(y, u))
     # a statistic resting on one sample says nothing either way
     assert np.isnan(check.pvalues[0]) and not check.detected
+    assert check.undecided == ("u1",) and "cannot tell for u1" in check.summary()
     assert "untested" in check.summary()
+
+
+# -- loops whose controller adds no noise of its own -------------------------------------
+
+def pi_loops_record(seed: int, noise_pole: float, N: int = 2100) -> moli.IOData:
+    """The 2x2 plant of moli.systems under its two PI loops (no noise added to their outputs),
+    tracking set-point steps held 30-150 samples that the record does not hold; output noise
+    of sd 0.1, white or AR(1). N = 2100: the estimation part identify keeps of 3000 samples."""
+    from moli import control as mc
+    from moli.systems import LinearPlant, pi_loop_gains, pi_loop_plant
+
+    rng = np.random.default_rng(seed)
+    r = np.zeros((N, 2))
+    for channel in range(2):
+        k = 0
+        while k < N:
+            hold = int(rng.integers(30, 151))
+            r[k:k + hold, channel] = rng.uniform(-1, 1)
+            k += hold
+    loops = mc.DecentralizedPID([mc.PIDGains(kp, ki, 0.0) for kp, ki in pi_loop_gains()], [(0, 0), (1, 1)],
+                                Ts=1.0, u0=np.zeros(2), u_limits=(-np.inf, np.inf))
+    run = mc.closed_loop(LinearPlant(pi_loop_plant(), 0.1, noise_pole), loops, r, seed=seed)
+    return moli.IOData(run.y, run.u)
+
+
+def open_pi_plant_record(seed: int, N: int = 2100) -> moli.IOData:
+    """The same plant in open loop: random binary inputs held 1-5 samples, output noise of sd 0.1."""
+    from moli.systems import pi_loop_plant
+
+    rng = np.random.default_rng(seed)
+    u = np.repeat(rng.choice([-1.0, 1.0], size=(N, 2)), rng.integers(1, 6, size=N), axis=0)[:N]
+    return moli.IOData(pi_loop_plant().simulate(u) + 0.1 * rng.standard_normal((N, 2)), u)
+
+
+def test_pi_loops_whose_controller_adds_no_noise_are_detected():
+    # Such a controller's output is an exact function of the outputs and its own past wherever
+    # its set-points hold still: every window between two steps fits to round-off (1e-14,
+    # docs/diagnostics.md §4). Two of the record's ~39 windows must be free of a step; each
+    # is with probability about 1/2, so a record without two fails with probability under
+    # 1e-9: every record must be found, white or coloured noise (the F-test alone left the
+    # coloured ones untested: their changes crowd onto the set-point steps)
+    for seed in range(6):
+        for pole in (0.0, 0.9):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                check = moli.feedback_check(pi_loops_record(seed, pole))
+            assert check.detected and check.exact == ("u1", "u2"), (seed, pole, check.summary())
+    assert "reproduce u1, u2 exactly" in check.summary()
+
+
+def test_open_loop_records_of_the_same_plant_are_not_reproduced_exactly():
+    alarms = 0
+    for seed in range(100):
+        check = moli.feedback_check(open_pi_plant_record(seed))
+        # outputs with noise meet an input to 1e-5 in a window with probability of order
+        # 1e-50: never
+        assert check.exact == ()
+        alarms += check.detected
+    # the F-test at level 0.01 (measured: 2 alarms in these 100 records): 5 or more of 100
+    # would happen with probability 0.003 if it kept its level
+    assert alarms <= 4
+
+
+def test_an_input_the_outputs_explain_entirely_is_feedback():
+    # u = -0.5 y: the input's innovation is the output's times -0.5, so the F-test's full
+    # regression leaves nothing (this counted as p = 1 before), and every window fits exactly
+    rng = np.random.default_rng(3)
+    v = 0.3 * rng.standard_normal(1500)
+    x, y, u = 0.0, np.empty(1500), np.empty(1500)
+    for k in range(1500):
+        y[k] = x + v[k]
+        u[k] = -0.5 * y[k]
+        x = 0.9 * x + 0.5 * u[k]
+    check = moli.feedback_check(moli.IOData(y, u))
+    assert check.detected and check.pvalues[0] == 0.0 and check.exact == ("u1",)
+
+
+def test_held_stretches_are_no_evidence_of_an_exact_fit():
+    # a record whose channels sit still for stretches (a logger holding its last values, as
+    # in DaISy's exchanger): a window whose rows are one held row and 15 fresh ones has
+    # fewer distinct rows than its 22 columns, and fits any input exactly; it must not count
+    rng = np.random.default_rng(4)
+    u = rng.standard_normal(1500)
+    y = scipy.signal.lfilter([0.0, 0.5], [1.0, -0.9], u) + 0.1 * rng.standard_normal(1500)
+    # windows of 32 rows from sample 10 (10 lags, 22 columns): stretches that end 15 rows
+    # before a window does
+    for end in (10 + 32 * k + 32 - 15 for k in (5, 15, 25)):
+        u[end - 100:end], y[end - 100:end] = u[end - 100], y[end - 100]
+    assert moli.feedback_check(moli.IOData(y, u), lags=10).exact == ()

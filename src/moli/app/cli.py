@@ -269,7 +269,7 @@ def demo(out_dir: Path, nmax: int, all_lists: bool, force: bool) -> None:
 @click.option("--closed-loop", type=click.Choice(["open", "two-stage", "direct"]),
               help="A record taken under feedback: identify it as open-loop, by the two-stage method "
                    "(needs --reference) or by the direct prediction-error method [default: two-stage "
-                   "with --reference, else open].")
+                   "with --reference, else direct where an input is a controller's output, else open].")
 @_FORCE
 @reading_options
 def fit(*, data_files: tuple[Path, ...], inputs: str | None, outputs: str | None, daisy: str | None,

@@ -14,10 +14,19 @@ outputs) the noise reaches the inputs. The check (docs/diagnostics.md §4):
 Lag 0 is where a controller that computes ``u[k]`` from ``y[k]`` shows (a PI loop
 whose reference is white is visible nowhere else); it is also where a plant with
 direct feedthrough shows, which ``lag_zero=False`` leaves out.
+
+3. A controller whose output carries no added noise makes each input an exact linear
+   function of the outputs and its own past wherever its references hold still. In
+   windows of the record a little longer than that regression has columns, each input
+   is fitted on an intercept, ``u[k-1..k-L]`` and ``y[k..k-L]``: where the outputs
+   reproduce what the input's own past leaves to 1e-5 in more than one window, the
+   input is a controller's output (docs/diagnostics.md §4). The F-test cannot see such
+   a loop where set-point steps crowd the input's changes onto a few samples.
 """
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,13 +34,25 @@ import scipy.linalg
 import scipy.special
 
 from ..data.iodata import IOData, require_one_segment
-from ..errors import DataError
+from ..errors import ClosedLoopWarning, DataError
 
 __all__ = ["FeedbackCheck", "feedback_check", "DEFAULT_LAGS"]
 
 DEFAULT_LAGS = 10
 # The full regression keeps at least this many residual degrees of freedom per column.
 ROWS_PER_COLUMN = 3
+# The exactness test (step 3). An exact fit is evidence only where the window has more
+# distinct rows than its regression has independent columns: SURPLUS_ROWS more. Outputs
+# that carry noise meet all of them to EXACT_SHARE with a chance of order
+# EXACT_SHARE ** SURPLUS_ROWS; a controller's output computed in double precision is met
+# to about 1e-14, and one logged with 6 significant digits to about 1e-6.
+SURPLUS_ROWS = 10
+# "Exact": the outputs leave at most this share of the rms that the input's own past
+# leaves in the window (the share measurement noise 100 dB below the input would leave).
+EXACT_SHARE = 1e-5
+# Windows that must fit exactly: a relation that holds in two stretches of the record,
+# not one stretch of odd data.
+EXACT_WINDOWS = 2
 
 
 @dataclass(frozen=True)
@@ -42,12 +63,13 @@ class FeedbackCheck:
     ----------
     detected : bool
         True when some input's p-value is below ``level / m`` (Bonferroni: ``level``
-        bounds the chance of a false alarm on open-loop data, whatever ``m``).
+        bounds the chance of a false alarm on open-loop data, whatever ``m``), or the
+        outputs reproduce some input exactly (``exact``).
     pvalues : ndarray, shape (m,)
         Per input, the p-value of "the output innovations do not help predict this
         input"; NaN where the input changes too rarely to test (its innovation is
         spread over fewer samples than the test has columns, e.g. a binary signal that
-        switches a few times in the record).
+        switches a few times in the record): the test cannot tell.
     lags : int
         Past samples of every channel in the regressions.
     level : float
@@ -55,6 +77,11 @@ class FeedbackCheck:
     input_names : tuple of str
     lag_zero : bool
         Whether the current output innovations were tested too.
+    exact : tuple of str
+        Inputs that the outputs and the inputs' past reproduce exactly in at least two
+        windows of the record: the output of a controller that adds no noise of its own.
+    untested : tuple of (str, str)
+        Per input with a NaN p-value, its name and why the F-test cannot tell.
     """
 
     detected: bool
@@ -63,23 +90,47 @@ class FeedbackCheck:
     level: float
     input_names: tuple[str, ...]
     lag_zero: bool = True
+    exact: tuple[str, ...] = ()
+    untested: tuple[tuple[str, str], ...] = ()
 
     @property
     def flagged(self) -> tuple[str, ...]:
-        """Names of the inputs whose p-value is below ``level / m``."""
+        """Names of the inputs whose p-value is below ``level / m`` or that the outputs reproduce exactly."""
         bound = self.level / len(self.pvalues)
-        return tuple(name for name, pv in zip(self.input_names, self.pvalues) if pv < bound)
+        return tuple(name for name, pv in zip(self.input_names, self.pvalues) if pv < bound or name in self.exact)
+
+    @property
+    def undecided(self) -> tuple[str, ...]:
+        """Names of the inputs the check cannot tell about: untested by the F-test, not reproduced exactly."""
+        return tuple(name for name, pv in zip(self.input_names, self.pvalues)
+                     if np.isnan(pv) and name not in self.exact)
 
     def summary(self) -> str:
         """One line: the verdict and the p-values that decide it."""
         values = ", ".join(f"{name} p = {pv:.2g}" if np.isfinite(pv) else f"{name} untested (too few changes)"
                            for name, pv in zip(self.input_names, self.pvalues))
         if self.detected:
-            verdict = "feedback detected: the output noise reaches " + ", ".join(self.flagged)
+            noise = [name for name in self.flagged if name not in self.exact]
+            found = ([f"the outputs reproduce {', '.join(self.exact)} exactly (a controller's output)"]
+                     if self.exact else []) + ([f"the output noise reaches {', '.join(noise)}"] if noise else [])
+            verdict = "feedback detected: " + "; ".join(found)
+        elif self.undecided:
+            verdict = f"no feedback detected, but cannot tell for {', '.join(self.undecided)}"
         else:
             verdict = "no feedback detected"
         return (f"{verdict} ({values}; lags {0 if self.lag_zero else 1}-{self.lags}, level {self.level:g} "
                 f"over {len(self.pvalues)} input{'s' if len(self.pvalues) > 1 else ''})")
+
+    def cannot_tell(self) -> str | None:
+        """Why the check cannot tell for the :attr:`undecided` inputs (None where it can tell for every input)."""
+        if not self.undecided:
+            return None
+        one = len(self.undecided) == 1
+        reasons = [f"{name}: {why}" for name, why in self.untested if name in self.undecided]
+        return (f"the feedback check cannot tell whether {', '.join(self.undecided)} depend{'s' if one else ''} on "
+                f"the outputs: {'; '.join(reasons)}; and the outputs do not reproduce {'it' if one else 'them'} "
+                f"exactly. {'It counts' if one else 'They count'} as open-loop: if the record is closed-loop, "
+                "name its set-points with reference=[...] or identify with closed_loop='direct'")
 
 
 def usable_lags(N: int, p: int, m: int, lags: int = DEFAULT_LAGS) -> int:
@@ -116,9 +167,20 @@ def feedback_check(
         sample shows only there; so does a plant with direct feedthrough (``D``
         not zero), which lag 0 cannot tell from feedback: pass False for such a plant.
 
+    Each input is also fitted, in windows of the record, on an intercept, the inputs'
+    past and the outputs (lags 0 or 1 to ``lags``): an input that the outputs
+    reproduce exactly in two windows is a controller's output (``exact``), detected
+    whatever the F-test says.
+
     Returns
     -------
     FeedbackCheck
+
+    Warns
+    -----
+    ClosedLoopWarning
+        Where the check cannot tell for some input (a NaN p-value and no exact fit),
+        naming it and why.
 
     Raises
     ------
@@ -140,6 +202,12 @@ def feedback_check(
     True
     >>> moli.feedback_check(moli.IOData(y, r)).detected    # r is open loop
     False
+    >>> for k in range(2000):              # no reference: u made of y alone
+    ...     y[k] = x + v[k]
+    ...     u[k] = -0.5 * y[k]
+    ...     x = 0.9 * x + 0.5 * u[k]
+    >>> moli.feedback_check(moli.IOData(y, u)).exact
+    ('u1',)
     """
     if not isinstance(data, IOData):
         raise DataError(f"data must be an IOData, got {type(data).__name__}")
@@ -161,9 +229,20 @@ def feedback_check(
             f"{N} samples are too few for the feedback check with {wanted}: its regression "
             f"needs {ROWS_PER_COLUMN} rows per column ({1 + (p + m) * max(L, lags or 1) + m} columns)"
         )
-    pvalues = _pvalues(data, L, lag_zero)
-    return FeedbackCheck(bool(np.any(pvalues < level / m)), pvalues, L, float(level),
-                         data.input_names, lag_zero)
+    check = checked_feedback(data, L, float(level), lag_zero)
+    if (why := check.cannot_tell()) is not None:
+        warnings.warn(why, ClosedLoopWarning, stacklevel=2)
+    return check
+
+
+def checked_feedback(data: IOData, lags: int, level: float, lag_zero: bool) -> FeedbackCheck:
+    """:func:`feedback_check` with its arguments checked and no warning: the caller says
+    what the check could not tell (:meth:`FeedbackCheck.cannot_tell`)."""
+    pvalues, untested = _pvalues(data, lags, lag_zero)
+    exact = tuple(name for name, windows in zip(data.input_names, _exact_windows(data, lags, lag_zero))
+                  if windows >= EXACT_WINDOWS)
+    return FeedbackCheck(bool(np.any(pvalues < level / data.m)) or bool(exact), pvalues, lags, level,
+                         data.input_names, lag_zero, exact, untested)
 
 
 def _lagged(signal: np.ndarray, lags: range, start: int) -> list[np.ndarray]:
@@ -185,8 +264,9 @@ def _innovations(data: IOData, L: int) -> np.ndarray:
     return target - X @ np.linalg.lstsq(X, target, rcond=None)[0]
 
 
-def _pvalues(data: IOData, L: int, lag_zero: bool) -> np.ndarray:
-    """Per input, the F-test p-value of the output innovations, from one QR shared by all inputs."""
+def _pvalues(data: IOData, L: int, lag_zero: bool) -> tuple[np.ndarray, tuple[tuple[str, str], ...]]:
+    """Per input, the F-test p-value of the output innovations, from one QR shared by all inputs;
+    and, per input left untested (NaN), why."""
     m = data.m
     innovations = _innovations(data, L)                       # samples L .. N-1
     start = 2 * L                                              # L lags of the innovations
@@ -206,21 +286,57 @@ def _pvalues(data: IOData, L: int, lag_zero: bool) -> np.ndarray:
     full = restricted + added
     dof = rows - full
     spread = _spread(u[L:])
-    pvalues = np.ones(m)
+    pvalues, untested = np.ones(m), []
     for j in range(m):
         column = R[:, full + j]
         rss_full = float(column[full:] @ column[full:])
         rss_restricted = float(column[restricted:] @ column[restricted:])
         # an input its own past predicts exactly (a constant, a sine) is not driven
         # by anything else, feedback included: p = 1
-        if not (rss_full > 1e-12 * rss_restricted and rss_restricted > 0):
+        if not rss_restricted > 0:
+            continue
+        # the output innovations explain all the rest of it: the strongest evidence there is
+        if not rss_full > 1e-12 * rss_restricted:
+            pvalues[j] = 0.0
             continue
         if spread[j] < added:  # too few changes to test
             pvalues[j] = np.nan
+            untested.append((data.input_names[j], f"its changes are spread over {spread[j]:.0f} samples, fewer "
+                             f"than the {added} columns the F-test adds (set-point steps or rare switches)"))
             continue
         F = (rss_restricted - rss_full) / added / (rss_full / dof)
         pvalues[j] = scipy.special.fdtrc(added, dof, F)  # F survival function
-    return pvalues
+    return pvalues, tuple(untested)
+
+
+def _exact_windows(data: IOData, L: int, lag_zero: bool) -> np.ndarray:
+    """Per input, in how many windows the outputs reproduce it exactly (step 3 of the module's text).
+
+    Windows of :data:`SURPLUS_ROWS` rows more than the regression has columns, side by side;
+    a window counts where it has SURPLUS_ROWS more distinct rows than independent columns
+    (a stretch of held values repeats one row), the input's own past leaves something of it,
+    and the outputs leave at most :data:`EXACT_SHARE` of that.
+    """
+    own = np.column_stack([np.ones(data.N - L), *_lagged(data.u, range(1, L + 1), L)])
+    full = np.column_stack([own, *_lagged(data.y, range(0 if lag_zero else 1, L + 1), L)])
+    norms = np.linalg.norm(full, axis=0)
+    full = full / np.where(norms > 0, norms, 1.0)           # columns of one scale: a rank that means something
+    own = full[:, :own.shape[1]]
+    targets = data.u[L:]
+    width = full.shape[1] + SURPLUS_ROWS
+    counts = np.zeros(data.m, dtype=int)
+    for start in range(0, targets.shape[0] - width + 1, width):
+        rows = slice(start, start + width)
+        X, t = full[rows], targets[rows]
+        coefficients, _, rank, _ = np.linalg.lstsq(X, t, rcond=None)
+        distinct = 1 + np.count_nonzero(np.any(np.diff(X, axis=0) != 0, axis=1))
+        if distinct - rank < SURPLUS_ROWS:
+            continue
+        left = np.linalg.norm(t - X @ coefficients, axis=0)
+        left_own = np.linalg.norm(t - own[rows] @ np.linalg.lstsq(own[rows], t, rcond=None)[0], axis=0)
+        moved = left_own > EXACT_SHARE * np.linalg.norm(t - t.mean(axis=0), axis=0)
+        counts += moved & (left <= EXACT_SHARE * left_own)
+    return counts
 
 
 def _spread(u: np.ndarray) -> np.ndarray:

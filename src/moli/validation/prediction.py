@@ -157,7 +157,7 @@ def initial_state(model: LinearModel, u: np.ndarray, y: np.ndarray, horizon: int
     ndarray, shape (n,)
     """
     model, u = _delay_free(model, u)
-    N, n = y.shape[0], model.n
+    N = y.shape[0]
     stamps = _stamps(model, N, t)
     if horizon is None or horizon > N - 1:
         forced = model.simulate_at(u, stamps)

@@ -152,7 +152,7 @@ def impulse_response(data: IOData, kernel: str = "TC", length: int | None = None
                         + ("least squares needs more rows than coefficients; use a kernel or a shorter length"
                            if kernel == "none" else "give a longer record or a shorter length"))
     fits = _fits(record, lags, kernel)
-    n, p, m = length, record.p, record.m
+    n, m = length, record.m
     return ImpulseResponse(
         coefficients=np.stack([f.coefficients.reshape(m, n).T for f in fits], axis=1),
         lags=lags, cov_factors=tuple(f.cov_factor for f in fits),

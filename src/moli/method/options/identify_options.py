@@ -178,8 +178,10 @@ class IdentifyOptions:
         loop were open; by the two-stage method (the part of each input that the
         ``reference`` explains replaces the input); or by the direct prediction-error
         method (the model and its Kalman gain jointly). None (the default): "two-stage"
-        when a ``reference`` is named, else "open", which warns when the record looks
-        closed-loop.
+        when a ``reference`` is named; else "direct" where the feedback check finds an
+        input that the outputs reproduce exactly (a controller's output) and
+        ``feedthrough`` is not True; else "open", which warns when the record looks
+        closed-loop. "open" keeps the open-loop fit whatever the check finds.
 
     Examples
     --------
@@ -279,11 +281,8 @@ class IdentifyOptions:
             object.__setattr__(self, name, value)
 
     def path_end(self, p: int) -> int:
-        """The order the greedy path runs to for ``p`` outputs: ``nmax``, else ``order``,
-        else ``max(10, p + 4)``."""
-        if self.nmax is not None:
-            return self.nmax
-        return self.order if self.order is not None else max(10, p + 4)
+        """The order the greedy path runs to for ``p`` outputs: ``nmax``, else ``order``, else ``max(10, p + 4)``."""
+        return self.nmax if self.nmax is not None else self.order if self.order is not None else max(10, p + 4)
 
     @classmethod
     def default(cls, **changes: Any) -> "IdentifyOptions":

@@ -87,7 +87,8 @@ def record_of_making(selection: PathSelection, prepared: Prepared, skipped: tupl
     model.info["options"] = prepared.options.to_dict()
     if prepared.estimation.time_unit is not None:     # the unit of Ts, for axes and tables
         model.info["time_unit"] = prepared.estimation.time_unit
-    model.info["closed_loop"] = loop_record(prepared.loop, prepared.projection, prepared.feedback)
+    model.info["closed_loop"] = loop_record(prepared.loop, prepared.projection, prepared.feedback,
+                                            prepared.options.closed_loop)
     return model
 
 

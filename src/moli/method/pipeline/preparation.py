@@ -16,7 +16,8 @@ from ...data.iodata import IOData, longest_segment
 from ...data.quality import screen
 from ...errors import DataError, OptionError
 from ...validation.comparison import same_period
-from ..closed_loop.loop_method import feedback_found, loop_method
+from ...validation.feedback import FeedbackCheck
+from ..closed_loop.loop_method import feedback_found, loop_method, warn_feedback
 from ..closed_loop.reference_projection import FirstStage, ReferenceProjection, two_stage_records, without_reference
 from ..least_squares.estimation import check_sample_count
 from ..options.identify_options import IdentifyOptions
@@ -58,7 +59,7 @@ class Prepared:
     delays: tuple[int, ...]
     projection: ReferenceProjection | None
     first_stage: FirstStage | None
-    feedback: str | None
+    feedback: FeedbackCheck | None
 
     @property
     def bound(self) -> float:
@@ -142,17 +143,27 @@ def prepare(estimation: IOData, validation: IOData, options: IdentifyOptions) ->
                           "(time='continuous'): a sampled model takes each input as it is sampled")
     loop, options = loop_method(options)
     p, nmax = estimation.p, options.path_end(estimation.p)
-    feedthrough = options.feedthrough is not False
-    projection = first = None
+    projection = first = feedback = None
     if loop == "two-stage":
         if options.delays != 0:
             raise OptionError("the two-stage method (reference=...) takes no input delays yet: leave delays at 0 "
                               "or use closed_loop='direct'")
         estimation, validation, projection, first = two_stage_records(estimation, validation, options.reference)
         # the first stage on the samples the search and the refinement keep, for the covariance
-        first = first.rows(estimation.bounds, short_segments(estimation, nmax, feedthrough), options.search_samples)
-    elif options.reference:        # a method that does not use the references: the plant inputs alone
-        estimation, validation = (without_reference(record, options.reference) for record in (estimation, validation))
+        first = first.rows(estimation.bounds, short_segments(estimation, nmax, options.feedthrough is not False),
+                           options.search_samples)
+    else:
+        if options.reference:      # a method that does not use the references: the plant inputs alone
+            estimation, validation = (without_reference(record, options.reference)
+                                      for record in (estimation, validation))
+        # a plant told to have feedthrough shows it at lag 0 like feedback: test later lags only
+        # (the two-stage method's inputs are projections on the references: nothing to check).
+        # Checked before the segments and the centring (the check's intercept and its longest
+        # stretch make them no difference): a controller found turns the default to the
+        # direct method, whose options (no feedthrough) the segments depend on
+        feedback = feedback_found(estimation, lag_zero=options.feedthrough is not True)
+        loop, options = loop_method(options, feedback)
+    feedthrough = options.feedthrough is not False
     estimation = long_segments(estimation, nmax, feedthrough)
     if options.center:
         estimation = estimation.remove_means()
@@ -167,10 +178,7 @@ def prepare(estimation: IOData, validation: IOData, options: IdentifyOptions) ->
     check_sample_count(estimation.N - max(delays), (1,) * p, estimation.m, feedthrough)
     check_reach(options.nmax, options.order, estimation.N - max(delays), p, estimation.m, feedthrough)
     screen(estimation, nmax, stacklevel=3)
-    # a plant told to have feedthrough shows it at lag 0 like feedback: test later lags only
-    # (the two-stage method's inputs are projections on the references: nothing to check)
-    feedback = None if loop == "two-stage" else feedback_found(estimation, lag_zero=options.feedthrough is not True,
-                                                               warn=loop == "open", stacklevel=3)
+    warn_feedback(loop, feedback, options.closed_loop, stacklevel=3)
     # the path's models are fitted and scored on the shifted inputs, delay-free; the
     # delays are attached once the path is done (the results are the same either way)
     fitted, scored = shifted_inputs(estimation, delays), shifted_inputs(validation, delays)
