@@ -202,3 +202,19 @@ def test_held_stretches_are_no_evidence_of_an_exact_fit():
     for end in (10 + 32 * k + 32 - 15 for k in (5, 15, 25)):
         u[end - 100:end], y[end - 100:end] = u[end - 100], y[end - 100]
     assert moli.feedback_check(moli.IOData(y, u), lags=10).exact == ()
+
+
+@pytest.mark.parametrize("period", [8, 11, 12, 13, 25])
+def test_a_noise_free_periodic_open_loop_record_is_not_a_controller(period):
+    # a multisine-like input repeated every `period` samples through y = 0.5 / (q - 0.9) u, no
+    # noise: once its start has decayed, the outputs and the input's own past reproduce the input
+    # exactly (y(t - period + 1) holds u(t - period) = u(t)), yet nothing closes a loop. Its
+    # windows repeat the rows of one period (and its start's rows differ by round-off-sized
+    # amounts): too few distinct rows to prove anything (a period of 12 with 11 lags was taken
+    # for a controller's output, and the default identified it by the direct method)
+    rng = np.random.default_rng(period)
+    u = np.tile(rng.standard_normal(period), 1500 // period + 1)[:1500]
+    y = scipy.signal.lfilter([0.0, 0.5], [1.0, -0.9], u)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", moli.ClosedLoopWarning)
+        assert moli.feedback_check(moli.IOData(y, u)).exact == ()

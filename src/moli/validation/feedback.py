@@ -314,7 +314,8 @@ def _exact_windows(data: IOData, L: int, lag_zero: bool) -> np.ndarray:
 
     Windows of :data:`SURPLUS_ROWS` rows more than the regression has columns, side by side;
     a window counts where it has SURPLUS_ROWS more distinct rows than independent columns
-    (a stretch of held values repeats one row), the input's own past leaves something of it,
+    (a stretch of held values repeats one row, a periodic record its periods' rows), the input's own
+    past leaves something of it,
     and the outputs leave at most :data:`EXACT_SHARE` of that.
     """
     own = np.column_stack([np.ones(data.N - L), *_lagged(data.u, range(1, L + 1), L)])
@@ -329,7 +330,10 @@ def _exact_windows(data: IOData, L: int, lag_zero: bool) -> np.ndarray:
         rows = slice(start, start + width)
         X, t = full[rows], targets[rows]
         coefficients, _, rank, _ = np.linalg.lstsq(X, t, rcond=None)
-        distinct = 1 + np.count_nonzero(np.any(np.diff(X, axis=0) != 0, axis=1))
+        # rows seen before prove nothing new (held values, a periodic record's periods), nor do rows
+        # apart by less than what an exact fit leaves (a noise-free periodic record's decaying start)
+        grain = EXACT_SHARE * np.max(np.abs(X), axis=0)
+        distinct = np.unique(np.round(X / np.where(grain > 0, grain, 1.0)), axis=0).shape[0]
         if distinct - rank < SURPLUS_ROWS:
             continue
         left = np.linalg.norm(t - X @ coefficients, axis=0)
