@@ -22,8 +22,8 @@ import moli
 from moli.app import cli
 
 INPUTS, OUTPUTS = "u1,u2,u3", "y1,y2,y3"
-# the path 3, 4, 5 with the order fixed at 4: a search to interrupt, and no order-bound check
-# after the noise model (its Ctrl-C would be lost inside identify: docs/cli.md, "Exit codes")
+# the path 3, 4, 5 with the order fixed at 4: a search to interrupt, and a model whose order says
+# how far the run got (4 when complete, 3 when the search was cut after its first order)
 FIT = ["--inputs", INPUTS, "--outputs", OUTPUTS, "--nmax", "5", "--order", "4"]
 # the console script's own two lines: import its entry point and call it. "ready" first, so that the
 # moments are drawn from when the interpreter has started (its own start-up, importing the site
@@ -64,7 +64,6 @@ def test_ctrl_c_at_twenty_moments_of_a_fit_is_one_line_and_keeps_every_written_m
     code, stderr, seconds = _fit_process(folder, None)
     assert code == 0, stderr
     moments = np.random.default_rng(20).uniform(0.0, seconds, 20)
-    seen = set()
     for moment in moments:
         code, stderr, _ = _fit_process(folder, float(moment))
         said = [line for line in stderr.splitlines() if "interrupted" in line]
@@ -80,9 +79,8 @@ def test_ctrl_c_at_twenty_moments_of_a_fit_is_one_line_and_keeps_every_written_m
             assert moli.load_model(written).n in ((4,) if code == 0 else (3, 4)), context
         else:
             assert said == ["moli: interrupted"] and not written.exists(), context
-        seen.add(code)
-    # the moments span the run: some before the model is written, some after
-    assert {3, 130} <= seen
+    # which codes the moments meet depends on the machine's speed (a loaded machine stretches
+    # some phases): the codes 3 and 130 are each made certain by the tests below
 
 
 def test_ctrl_c_during_the_report_keeps_the_model_and_exits_3(folder, monkeypatch):

@@ -111,12 +111,22 @@ def test_each_segment_gives_its_own_rows():
     np.testing.assert_allclose(factor.R1.T @ factor.R1, phi.T @ phi, rtol=1e-10, atol=1e-9)
 
 
-def test_step_bands_are_the_summed_impulse_bands():
-    fit = moli.method.impulse_response(_record(150, 8), kernel="SS", length=15)
+def test_step_bands_are_those_of_the_summed_posterior():
+    # independent truth: the posterior covariance K - K Phi' S^-1 Phi K formed whole; the step
+    # response at lag k sums the impulse response's first k + 1 coefficients, so its variance
+    # sums that covariance's leading (k + 1) x (k + 1) block
+    data = _record(150, 8).remove_means()
+    fit = moli.method.impulse_response(data, kernel="SS", length=15, center=False)
+    phi, y = _direct(data, fit.lags)
+    h = fit.hyperparameters[0][0]
+    K = kernel_matrix("SS", fit.lags, np.array([np.log(h["c"]), np.log(h["lambda"] / (1 - h["lambda"]))]))
+    S = fit.noise_variance[0] * np.eye(len(y)) + phi @ K @ phi.T
+    posterior = K - K @ phi.T @ np.linalg.solve(S, phi @ K)
+    sd = np.sqrt([posterior[: k + 1, : k + 1].sum() for k in range(15)])
     lower, upper = fit.bands(0.95, step=True)
-    assert np.allclose((lower + upper) / 2, fit.step())
-    # the first lag's step is its impulse: the same band
-    np.testing.assert_allclose(upper[0], fit.bands(0.95)[1][0])
+    np.testing.assert_allclose(fit.step()[:, 0, 0], np.cumsum(fit.coefficients[:, 0, 0]))
+    # two routes to the same numbers (a solve of 135 x 135 against triangular factors): 1e-6
+    np.testing.assert_allclose((upper - lower)[:, 0, 0] / 2, 1.959963984540054 * sd, rtol=1e-6)
 
 
 def test_bad_input_is_refused_before_any_work():
@@ -129,3 +139,12 @@ def test_bad_input_is_refused_before_any_work():
         moli.method.impulse_response(np.zeros((60, 2)))
     with pytest.raises(moli.DataError, match="more rows than coefficients"):
         moli.method.impulse_response(data, kernel="none", length=40)
+    with pytest.raises(moli.DataError, match="longest segment"):
+        moli.method.impulse_response(data, length=10 ** 11)       # refused before any array is made
+    still = moli.IOData(data.y, np.column_stack([data.u, np.ones(data.N)]))
+    with pytest.raises(moli.DataError, match="input u2 never changes"):
+        moli.method.impulse_response(still)
+    # two inputs that move together: least squares cannot tell their responses apart
+    twins = moli.IOData(data.y, np.column_stack([data.u, 2 * data.u]))
+    with pytest.raises(moli.DataError, match="ill-conditioned"):
+        moli.method.impulse_response(twins, kernel="none", length=5)

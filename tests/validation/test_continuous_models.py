@@ -48,7 +48,8 @@ def jittered_record(seed: int, N: int = 300, noise: float = 0.0, x0: object = No
 def test_compare_simulates_on_the_record_s_own_stamps_and_finds_the_initial_state():
     x0 = np.array([2.0, -1.0])
     data, clean = jittered_record(0, x0=x0)
-    # from rest: the zero-state simulation on the stamps; the least-squares initial state is the true one
+    # from rest: the zero-state simulation on the stamps (compare runs the same propagation per
+    # segment: outputs of order 1 agree to a few ulps, 1e-12); the least-squares initial state is the true one
     np.testing.assert_allclose(moli.compare(plant(), data).yhat, plant().simulate(data.u, data.time()), atol=1e-12)
     fitted = moli.compare(plant(), data, "estimate")
     # noise-free outputs: the fit is exact to round-off of the propagation (1e-10 relative, docs/continuous.md)
@@ -61,11 +62,13 @@ def test_free_response_is_the_matrix_exponential():
     t = np.array([0.0, 0.5, 0.7, 2.0])
     model = plant()
     expected = np.stack([model.C @ scipy.linalg.expm(model.A * s) for s in t])
+    # the exact propagation against scipy's Pade expm: both accurate to about 1e-13 relative; 1e-10 leaves room
     np.testing.assert_allclose(model.free_response_at(t), expected, rtol=1e-10, atol=1e-14)
 
 
 def test_predict_is_the_simulation_and_a_horizon_is_refused_with_the_reason():
     data, clean = jittered_record(1)
+    # the record's noise-free outputs were made by the same propagation from rest: round-off of outputs of order 1
     np.testing.assert_allclose(moli.predict(plant(), data, x0="zero"), clean, atol=1e-10)
     with pytest.raises(moli.OptionError, match="continuous-time model has none"):
         moli.predict(plant(), data, horizon=1)
@@ -77,7 +80,7 @@ def test_residual_analysis_of_the_true_plant_leaves_the_noise_and_a_missing_mode
     data, clean = jittered_record(2, N=600, noise=0.02)
     analysis = moli.residual_analysis(plant(), data, lags=15, x0="zero")
     assert analysis.horizon is None       # no noise model: simulation errors
-    np.testing.assert_allclose(analysis.residuals, data.y - clean, atol=1e-10)
+    np.testing.assert_allclose(analysis.residuals, data.y - clean, atol=1e-10)   # as predict's, above
     # the slow mode (gain 0.5 / 0.3 of 2.67) left out: the inputs explain the residuals
     fast_only = moli.ContinuousModel(np.array([[-1.0]]), np.array([[1.0]]), np.array([[1.0]]), np.zeros((1, 1)),
                                      ("y1",), ("u1",), np.zeros(1), np.zeros(1), (0.0,))
@@ -89,6 +92,7 @@ def test_bands_are_exact_where_the_response_is_linear_in_the_uncertain_entry():
     model = lag(sigma)
     t = np.array([0.0, 0.5, 1.0, 4.0])
     lower, upper = model.step_bands(t)
+    # the response is linear in the uncertain entry: the Gauss band is exact, to round-off of numbers of order 0.2
     np.testing.assert_allclose((upper - lower)[:, 0, 0] / 2, Z95 * sigma * (1 - np.exp(-t)), atol=1e-12)
     omega = np.array([0.0, 1.0, 10.0])
     lower, upper = model.magnitude_bands(omega)
@@ -96,6 +100,7 @@ def test_bands_are_exact_where_the_response_is_linear_in_the_uncertain_entry():
     data, _ = jittered_record(3)
     simulated = model.simulate(data.u, data.time())
     lower, upper = moli.simulation_bands(model, data)
+    # the same, on a simulation of a few hundred propagated steps (round-off accumulates to 1e-12)
     np.testing.assert_allclose((upper - lower) / 2, Z95 * sigma * np.abs(simulated), atol=1e-10)
 
 

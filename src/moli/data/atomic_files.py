@@ -33,6 +33,10 @@ TEMPORARY = re.compile(r"\..+\.(?P<pid>[1-9]\d{0,9})\.[a-z0-9_]{8}\.part")
 # change: its process id means nothing to a writer on another machine sharing the folder,
 # which is still writing if it changed the file that recently.
 GRACE_SECONDS = 60.0
+# The umask when this module was imported (set and set back while no file of moli's is being
+# written): what _umask falls back to where /proc does not state it.
+IMPORT_UMASK = os.umask(0)
+os.umask(IMPORT_UMASK)
 # Folders this process has already rid of leftovers: one look per folder and process, so
 # a fleet writing thousands of models into one folder does not list it at every save.
 _SWEPT: set[str] = set()
@@ -145,10 +149,22 @@ def _keep_mode(target: Path, temporary: str) -> None:
     except OSError:
         mode = None
     if mode is None:
-        umask = os.umask(0)
-        os.umask(umask)
-        mode = 0o666 & ~umask
+        mode = 0o666 & ~_umask()
     os.chmod(temporary, mode)
+
+
+def _umask() -> int:
+    """The process's umask, read without setting it: os.umask can only be read by setting it
+    and back, and a file another thread creates in between would get mode 0666. Linux states
+    it in /proc; elsewhere the value read when this module was imported."""
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("Umask:"):
+                    return int(line.split()[1], 8)
+    except (OSError, ValueError, IndexError):
+        pass
+    return IMPORT_UMASK
 
 
 def write_atomic(path: str | os.PathLike[str], content: str | bytes) -> None:

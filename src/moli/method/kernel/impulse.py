@@ -8,14 +8,13 @@ that the least squares of a short record, at the same length, cannot give (docs/
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from ...data.arguments import integer
 from ...data.iodata import IOData
-from ...errors import DataError, IllConditionedWarning, OptionError
+from ...errors import DataError, OptionError
 from ..least_squares.estimation import COND_LIMIT
 from .empirical_bayes import OutputFit, fit_output
 from .fir_rows import fir_factor, fir_rows
@@ -121,8 +120,9 @@ def impulse_response(data: IOData, kernel: str = "TC", length: int | None = None
     OptionError
         An unknown kernel, or a length that is not a positive integer.
     DataError
-        ``data`` is not an IOData; too few rows for the length (least squares needs more rows
-        than coefficients per output).
+        ``data`` is not an IOData; an input that never changes; a length beyond the longest
+        segment or too few rows for it (least squares needs more rows than coefficients per
+        output, and a condition number below 1e10).
 
     Examples
     --------
@@ -141,7 +141,15 @@ def impulse_response(data: IOData, kernel: str = "TC", length: int | None = None
     if length is not None:
         length = integer("length", length, error=OptionError, low=1)
     record = data.remove_means() if center else data
+    still = [name for name, spread in zip(record.input_names, np.ptp(record.u, axis=0)) if spread == 0]
+    if still:
+        raise DataError(f"input {', '.join(still)} never changes: the record says nothing of its response; "
+                        "leave it out of the inputs")
     first = 0 if feedthrough else 1
+    longest = max(stop - start for start, stop in record.bounds)
+    if length is not None and length >= longest:
+        raise DataError(f"length = {length} lags reach beyond the longest segment ({longest} samples): "
+                        "give a shorter length")
     if length is None:
         length = _chosen_length(record, "TC" if kernel == "none" else kernel, first)
     lags = np.arange(first, first + length)
@@ -163,13 +171,15 @@ def impulse_response(data: IOData, kernel: str = "TC", length: int | None = None
 
 
 def _fits(record: IOData, lags: np.ndarray, kernel: str) -> list[OutputFit]:
+    """Each output's fit; the least squares refused where its factor is ill-conditioned."""
     factor = fir_factor(record, lags)
     if kernel == "none":
-        diagonal = np.abs(np.diag(factor.R1))
-        if diagonal.min(initial=np.inf) <= diagonal.max(initial=0.0) / COND_LIMIT:
-            warnings.warn(f"the FIR least squares of {len(lags)} lags is ill-conditioned (the inputs do not "
-                          "excite every lag): its estimate and bands are unreliable; use a kernel",
-                          IllConditionedWarning, stacklevel=4)
+        with np.errstate(all="ignore"):
+            condition = np.linalg.cond(factor.R1)
+        if not condition < COND_LIMIT:      # a prior would bound what the data cannot: least squares has none
+            raise DataError(f"the FIR least squares of {len(lags)} lags is ill-conditioned (condition number "
+                            f"{condition:.3g}: the inputs do not excite every lag, or move together); use a "
+                            "kernel or a shorter length")
     scales = np.var(record.u, axis=0)
     return [fit_output(factor, j, kernel, lags, scales) for j in range(record.p)]
 
@@ -181,7 +191,7 @@ def _chosen_length(record: IOData, kernel: str, first: int) -> int:
     for _ in range(MAX_DOUBLINGS):
         lags = np.arange(first, first + length)
         fits = _fits(record, lags, kernel)
-        left = max(decay_of(kernel, z, length) for fit in fits for z in fit.coordinates)
+        left = max(decay_of(kernel, z, int(lags[-1])) for fit in fits for z in fit.coordinates)
         longer = 2 * length
         enough_rows = fir_rows(record, np.arange(first, first + longer)) >= ROWS_PER_COEFFICIENT * record.m * longer
         if left <= DECAY_LEFT or not enough_rows or longer > longest // 2:
