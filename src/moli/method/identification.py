@@ -11,8 +11,10 @@ from __future__ import annotations
 import time
 from typing import Any, Callable
 
+from ..data.frequency_data import FrequencyData
 from ..data.iodata import IOData
 from .continuous.identification import ContinuousResult, identify_continuous
+from .frequency.identification import FrequencyResult, identify_frequency
 from .options import IdentifyOptions, options_section
 from .pipeline.finishing import record_of_making, refine_and_finish
 from .pipeline.interruption import SELECTION_CHECKS, Phases, post_path_phases
@@ -26,20 +28,20 @@ __all__ = ["IdentificationResult", "identify"]
 
 
 def identify(
-    data: IOData,
+    data: IOData | FrequencyData,
     validation: IOData | None = None,
     options: IdentifyOptions | None = None,
     *,
     progress: Callable[[PathStep], None] | None = None,
     phase: Callable[[str], None] | None = None,
     **overrides: Any,
-) -> IdentificationResult | ContinuousResult:
+) -> IdentificationResult | ContinuousResult | FrequencyResult:
     """Identify a multivariable state-space model with MOLI-ZOFT.
 
     Parameters
     ----------
-    data : IOData
-        Estimation record.
+    data : IOData or FrequencyData
+        Estimation record, or a measured frequency response (docs/frequency.md).
     validation : IOData, optional
         Validation record, used only by the order rule. When omitted, the last
         30 % of ``data`` is held out for it (``result.validation_source`` says so).
@@ -63,7 +65,8 @@ def identify(
     -------
     IdentificationResult
         Or, with ``time="continuous"``, a :class:`ContinuousResult` whose model is a
-        :class:`ContinuousModel` (docs/continuous.md).
+        :class:`ContinuousModel` (docs/continuous.md); from :class:`FrequencyData`, a
+        :class:`FrequencyResult` (docs/frequency.md).
 
     Raises
     ------
@@ -86,6 +89,8 @@ def identify(
     False
     """
     options = call_options(options, overrides)
+    if isinstance(data, FrequencyData):
+        return identify_frequency(data, validation, options, progress, phase)
     check_hooks(data, progress, phase)
     estimation, validation, source = split_records(data, validation, options)
     nmax = options.path_end(data.p)
