@@ -11,8 +11,8 @@ With ``R(s) = (s I - A)^-1`` block diagonal (a pair's block ``[[a, b], [-b, a]]`
   ``Q``'s row ``k``; ``dG / d D_ij`` = ``e_i e_j'``.
 
 The residual of line ``k`` is ``w_k * (G(s_k) - G_k)`` entry by entry, real and imaginary
-parts as separate rows. Lines are taken :data:`LINE_CHUNK` at a time, and only the
-triangular factor of ``[J | r]`` (size x size) is kept: memory does not grow with the lines.
+parts as separate rows. Lines are taken :data:`LINE_CHUNK` at a time, and only ``J^T J``
+and ``J^T r`` (size x size) are kept: memory does not grow with the lines.
 """
 
 from __future__ import annotations
@@ -21,10 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...numerics.triangular import fold
 from .modal_form import ModalLayout, split
 
-__all__ = ["FitProblem", "LINE_CHUNK", "response", "cost", "factor", "score_spread"]
+__all__ = ["FitProblem", "LINE_CHUNK", "response", "cost", "normal_equations", "score_spread"]
 
 # Lines per pass block: the (chunk, p, m, size) complex Jacobian stays at a few megabytes.
 LINE_CHUNK = 256
@@ -83,20 +82,26 @@ def cost(layout: ModalLayout, theta: np.ndarray, problem: FitProblem) -> float:
 
 def _jacobian(layout: ModalLayout, P: np.ndarray, Q: np.ndarray) -> np.ndarray:
     """``dG / d theta`` on a block of lines, shape (F, p, m, size), complex."""
-    F, p, m, n, c = P.shape[0], layout.p, layout.m, layout.n, layout.pairs
+    F, p, m, n, c, r = P.shape[0], layout.p, layout.m, layout.n, layout.pairs, layout.reals
+    out = np.zeros((F, p, m, layout.size), dtype=complex)
     pair_P, pair_Q = P[:, :, :2 * c].reshape(F, p, c, 2), Q[:, :2 * c].reshape(F, c, 2, m)
-    parts = [
-        np.einsum("fpck,fckm->fpmc", pair_P, pair_Q),
-        np.einsum("fpc,fcm->fpmc", pair_P[..., 0], pair_Q[:, :, 1]) - np.einsum(
-            "fpc,fcm->fpmc", pair_P[..., 1], pair_Q[:, :, 0]),
-        np.einsum("fpr,frm->fpmr", P[:, :, 2 * c:], Q[:, 2 * c:]),
-        np.einsum("fpk,jl->fpjkl", P, np.eye(m)).reshape(F, p, m, n * m),
-        np.einsum("ai,fkm->famik", np.eye(p), Q).reshape(F, p, m, p * n),
-    ]
+    out[..., :c] = np.einsum("fpck,fckm->fpmc", pair_P, pair_Q)
+    first, second = pair_P[..., 0][:, :, None], pair_P[..., 1][:, :, None]                      # (F, p, 1, c)
+    upper, lower = pair_Q[:, :, 0].transpose(0, 2, 1)[:, None], pair_Q[:, :, 1].transpose(0, 2, 1)[:, None]
+    out[..., c:2 * c] = first * lower - second * upper                                        # P_i J Q_i
+    out[..., 2 * c:2 * c + r] = P[:, :, None, 2 * c:] * Q[:, 2 * c:].transpose(0, 2, 1)[:, None]
+    start = layout.poles
+    for j in range(m):                      # B[k, j] moves column j by P's column k
+        out[:, :, j, start + j: start + n * m: m] = P
+    start += n * m
+    for i in range(p):                      # C[i, k] moves row i by Q's row k
+        out[:, i, :, start + i * n: start + (i + 1) * n] = Q.transpose(0, 2, 1)
     if layout.feedthrough:
-        unit = (np.eye(p)[:, None, :, None] * np.eye(m)[None, :, None, :]).reshape(p, m, p * m)
-        parts.append(np.broadcast_to(unit, (F, p, m, p * m)))
-    return np.concatenate(parts, axis=3)
+        start += p * n
+        for i in range(p):
+            for j in range(m):
+                out[:, i, j, start + i * m + j] = 1.0
+    return out
 
 
 def _weighted(layout: ModalLayout, theta: np.ndarray, problem: FitProblem, part: slice) -> tuple[np.ndarray, ...]:
@@ -105,21 +110,23 @@ def _weighted(layout: ModalLayout, theta: np.ndarray, problem: FitProblem, part:
     return _jacobian(layout, P, Q) * weights[..., None], weights * (model - problem.G[part])
 
 
-def factor(layout: ModalLayout, theta: np.ndarray, problem: FitProblem) -> tuple[np.ndarray, np.ndarray, float]:
-    """``R`` and ``q`` with ``|J d + r|^2 = |R d + q|^2 + const`` (one pass), and the cost ``|r|^2``."""
-    triangle, total = None, 0.0
+def normal_equations(layout: ModalLayout, theta: np.ndarray, problem: FitProblem) -> tuple[np.ndarray, np.ndarray, float]:
+    """``J^T J``, ``J^T r`` (real and imaginary rows together) and the cost ``|r|^2``, in one pass over the lines.
+
+    The size x size products are all that is kept; a step's accuracy needs no more, as the
+    residual of the fit, not the step's round-off, sets the estimate (the steps continue
+    until the cost stops falling).
+    """
+    curvature, gradient, total = np.zeros((layout.size, layout.size)), np.zeros(layout.size), 0.0
     for start in problem.chunks():
         jacobian, residual = _weighted(layout, theta, problem, slice(start, start + LINE_CHUNK))
-        rows = np.concatenate([jacobian.reshape(-1, layout.size), residual.reshape(-1, 1)], axis=1)
-        triangle = fold(triangle, np.concatenate([rows.real, rows.imag]).T, 16)
+        rows = jacobian.reshape(-1, layout.size)
+        stacked = np.concatenate([rows.real, rows.imag])
+        curvature += stacked.T @ stacked
+        flat = residual.ravel()
+        gradient += stacked.T @ np.concatenate([flat.real, flat.imag])
         total += float(np.sum(np.abs(residual) ** 2))
-    size = layout.size
-    R = np.zeros((size, size))
-    q = np.zeros(size)
-    kept = min(triangle.shape[0], size)
-    R[:kept] = triangle[:kept, :size]
-    q[:kept] = triangle[:kept, size]
-    return R, q, total
+    return curvature, gradient, total
 
 
 def score_spread(layout: ModalLayout, theta: np.ndarray, problem: FitProblem) -> np.ndarray:

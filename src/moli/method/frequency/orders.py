@@ -16,7 +16,7 @@ from ...data.frequency_data import FrequencyData
 from ..selection.paired_test import error_shares
 from .fit_error import FitProblem, cost as fit_cost, response
 from .modal_form import ModalLayout, is_stable, matrices, modal_parameters, reflected
-from .refinement import refine_modal
+from .refinement import PATH_STEPS, refine_modal
 from .settings import FrequencySettings
 from .subspace import bilinear_points, input_and_feedthrough, observability_basis, poles_and_output
 
@@ -130,7 +130,8 @@ def fit_order(order: int, basis: np.ndarray, estimation: FitProblem, held_out: F
     shares = held_out_shares(layout, theta, held_out)
     fitted, refined, cost = theta, False, None
     if refine:
-        result = refine_modal(layout, theta, estimation, continuous=continuous, radius=settings.radius)
+        result = refine_modal(layout, theta, estimation, continuous=continuous, radius=settings.radius,
+                              max_steps=PATH_STEPS)
         refined_shares = held_out_shares(layout, result.theta, held_out)
         if settings.refine != "guarded" or refined_shares.sum() <= shares.sum():
             fitted, refined, cost, shares = result.theta, True, result.cost, refined_shares
