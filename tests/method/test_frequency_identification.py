@@ -1,0 +1,193 @@
+"""identify() on FrequencyData (docs/frequency.md): exact recovery, accuracy under noise, options, covariance, modes."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import moli
+from moli import DataError, FrequencyData, OptionError
+
+
+def modal_system(frequencies, dampings, p, m, seed):
+    """A continuous model with one lightly damped mode per natural frequency, random B and C."""
+    blocks = []
+    for wn, zeta in zip(frequencies, dampings):
+        sigma, omega = -zeta * wn, wn * np.sqrt(1 - zeta**2)
+        blocks.append(np.array([[sigma, omega], [-omega, sigma]]))
+    n = 2 * len(blocks)
+    A = np.zeros((n, n))
+    for i, block in enumerate(blocks):
+        A[2 * i:2 * i + 2, 2 * i:2 * i + 2] = block
+    rng = np.random.default_rng(seed)
+    return moli.ContinuousModel(A, rng.standard_normal((n, m)), rng.standard_normal((p, n)), np.zeros((p, m)),
+                                tuple(f"y{i + 1}" for i in range(p)), tuple(f"u{j + 1}" for j in range(m)),
+                                np.zeros(p), np.zeros(m), (0.0,) * m)
+
+
+def sorted_poles(model):
+    poles = np.linalg.eigvals(model.A)
+    return poles[np.lexsort((poles.imag, poles.real))]
+
+
+FREQUENCIES = np.array([10.0, 23.0, 41.0, 77.0])
+DAMPINGS = np.array([0.005, 0.02, 0.01, 0.05])
+OMEGA = np.logspace(0, 2.5, 2000)
+
+
+def noisy(truth, omega, level, seed, Ts=None):
+    """FRF of ``truth`` with circular complex noise of ``level`` times |G| on each entry, and that variance."""
+    G = truth.frequency_response(omega)
+    rng = np.random.default_rng(seed)
+    spread = level * np.abs(G)
+    noise = spread * (rng.standard_normal(G.shape) + 1j * rng.standard_normal(G.shape)) / np.sqrt(2)
+    return FrequencyData(omega, G + noise, unit="rad/s", Ts=Ts, variance=spread**2)
+
+
+# --- exact recovery ---------------------------------------------------------------------------
+
+# Noise-free lines: the subspace start is exact up to round-off and the refinement keeps it;
+# 1e-8 leaves the round-off of eigenvalues of up to 10 states (1e-12 relative here) a wide margin.
+EXACT = 1e-8
+
+
+@pytest.mark.parametrize("p, m, modes", [(1, 1, 2), (3, 2, 4)])
+def test_a_continuous_systems_noise_free_response_gives_back_its_poles_and_response(p, m, modes):
+    truth = modal_system(FREQUENCIES[:modes], DAMPINGS[:modes], p, m, seed=12)
+    result = moli.identify(FrequencyData(OMEGA, truth.frequency_response(OMEGA), unit="rad/s"))
+    model = result.model
+    assert isinstance(model, moli.ContinuousModel) and model.n == 2 * modes
+    assert np.allclose(sorted_poles(model), sorted_poles(truth), rtol=EXACT, atol=0)
+    fitted, G = model.frequency_response(OMEGA), truth.frequency_response(OMEGA)
+    assert np.max(np.abs(fitted - G)) <= EXACT * np.max(np.abs(G))
+
+
+@pytest.mark.parametrize("p, m, modes", [(1, 1, 2), (3, 2, 4)])
+def test_a_sampled_systems_noise_free_response_gives_back_its_poles_and_response(p, m, modes):
+    truth = modal_system(FREQUENCIES[:modes], DAMPINGS[:modes], p, m, seed=5).to_discrete(0.01)
+    omega = np.logspace(0, np.log10(np.pi / 0.01), 1500)
+    result = moli.identify(FrequencyData(omega, truth.frequency_response(omega), unit="rad/s", Ts=0.01))
+    model = result.model
+    assert isinstance(model, moli.StateSpaceModel) and model.Ts == 0.01 and model.n == 2 * modes
+    assert np.allclose(sorted_poles(model), sorted_poles(truth), rtol=EXACT, atol=0)
+    fitted, G = model.frequency_response(omega), truth.frequency_response(omega)
+    assert np.max(np.abs(fitted - G)) <= EXACT * np.max(np.abs(G))
+
+
+def test_a_feedthrough_and_a_real_pole_are_recovered_too():
+    A = np.array([[-0.5, 3.0, 0.0], [-3.0, -0.5, 0.0], [0.0, 0.0, -2.0]])
+    truth = moli.ContinuousModel(A, np.array([[1.0], [0.5], [2.0]]), np.array([[1.0, -1.0, 0.5]]), np.array([[0.3]]),
+                                 ("y1",), ("u1",), np.zeros(1), np.zeros(1), (0.0,))
+    omega = np.logspace(-1, 2, 400)
+    model = moli.identify(FrequencyData(omega, truth.frequency_response(omega), unit="rad/s")).model
+    assert np.allclose(sorted_poles(model), sorted_poles(truth), rtol=EXACT) and np.allclose(model.D, 0.3, rtol=EXACT)
+
+
+# --- accuracy under noise ---------------------------------------------------------------------
+
+@pytest.mark.parametrize("seed, level", [(0, 0.01), (1, 0.03), (2, 0.02)])
+def test_modes_of_a_noisy_mimo_modal_response(seed, level):
+    # 2000 lines, 1-3 % noise: the refinement's standard error of a natural frequency is
+    # about level * zeta / sqrt(lines near the peak) (1e-4 relative, docs/frequency.md measures
+    # 20 seeds), so 0.2 % and 10 % of the damping are the accuracy an engineer asks for, met
+    # with room; the order must be the true one.
+    truth = modal_system(FREQUENCIES, DAMPINGS, 3, 2, seed=12)
+    result = moli.identify(noisy(truth, OMEGA, level, seed))
+    assert result.selected.order == 8 and result.model.n == 8
+    found = moli.modes(result.model)
+    assert len(found) == 4 and all(mode.oscillatory for mode in found)
+    natural = np.array([mode.natural_frequency for mode in found])
+    damping = np.array([mode.damping for mode in found])
+    assert np.all(np.abs(natural / FREQUENCIES - 1) < 0.002)
+    assert np.all(np.abs(damping / DAMPINGS - 1) < 0.10)
+
+
+def test_a_sampled_noisy_response_has_its_bands_and_they_hold_the_truth():
+    # 95 % pointwise bands from the sandwich: the share of lines whose band holds the true gain
+    # is a rate over 1500 correlated lines; 0.8 is far below 0.95 yet far above what a covariance
+    # off by a factor of two (0.68 of the lines) would give.
+    truth = modal_system(FREQUENCIES[:2], DAMPINGS[:2], 2, 1, seed=3).to_discrete(0.01)
+    omega = np.logspace(0, np.log10(np.pi / 0.01), 1500)
+    result = moli.identify(noisy(truth, omega, 0.02, 7, Ts=0.01))
+    lower, upper = result.model.magnitude_bands(omega)
+    gain = np.abs(truth.frequency_response(omega))
+    held = np.mean((lower <= gain) & (gain <= upper))
+    assert result.model.cov_factor is not None and 0.8 <= held <= 1.0
+
+
+# --- options and bad calls --------------------------------------------------------------------
+
+SMALL = modal_system(FREQUENCIES[:1], DAMPINGS[:1], 1, 1, seed=1)
+SMALL_DATA = FrequencyData(OMEGA[::10], SMALL.frequency_response(OMEGA[::10]), unit="rad/s")
+
+
+def test_a_fixed_order_is_the_only_order_fitted():
+    result = moli.identify(SMALL_DATA, order=3)
+    assert [step.order for step in result.path] == [3] and result.model.n == 3
+
+
+def test_the_paths_orders_are_judged_on_interleaved_held_out_lines():
+    result = moli.identify(SMALL_DATA, nmax=4)
+    assert [step.order for step in result.path] == [1, 2, 3, 4] and result.selected.order == 2
+    assert np.all(np.diff(result.held_out) == 5) and result.held_out[-1] >= SMALL_DATA.F - 5
+
+
+def test_an_unstable_system_is_fitted_as_it_is_when_max_radius_is_none_and_mirrored_by_default():
+    unstable = moli.ContinuousModel(np.array([[0.2, 5.0], [-5.0, 0.2]]), np.array([[1.0], [0.0]]),
+                                    np.array([[1.0, 1.0]]), np.zeros((1, 1)), ("y1",), ("u1",), np.zeros(1),
+                                    np.zeros(1), (0.0,))
+    omega = np.logspace(-1, 2, 300)
+    data = FrequencyData(omega, unstable.frequency_response(omega), unit="rad/s")
+    free = moli.identify(data, max_radius=None, order=2).model
+    assert np.allclose(sorted_poles(free), sorted_poles(unstable), rtol=EXACT)
+    assert moli.identify(data, order=2).model.is_stable()
+
+
+@pytest.mark.parametrize("overrides, message", [
+    ({"filter_grid": "paper"}, "filter_grid does not apply to frequency data"),
+    ({"order_rule": "tolerance"}, "order_rule 'tolerance' does not apply"),
+    ({"max_radius": "auto"}, "max_radius='auto'"),
+    ({"time": "continuous"}, None),
+])
+def test_options_of_the_time_domain_method_are_refused_by_name(overrides, message):
+    if message is None:     # continuous data with time="continuous": the data's own time base
+        assert moli.identify(SMALL_DATA, order=2, **overrides).model.n == 2
+        return
+    with pytest.raises(OptionError, match=message):
+        moli.identify(SMALL_DATA, **overrides)
+
+
+def test_time_continuous_on_sampled_data_and_a_validation_record_are_refused():
+    sampled = FrequencyData([1.0, 2.0, 3.0] * np.ones(1), [1, 1, 1], unit="rad/s", Ts=0.1)
+    with pytest.raises(OptionError, match="give Ts"):
+        moli.identify(sampled, time="continuous")
+    with pytest.raises(OptionError, match="validation does not apply"):
+        moli.identify(SMALL_DATA, SMALL_DATA)
+
+
+def test_too_few_lines_for_the_orders_is_a_data_error():
+    with pytest.raises(DataError, match="too few for models of up to 10 states"):
+        moli.identify(FrequencyData(OMEGA[:12], SMALL.frequency_response(OMEGA[:12]), unit="rad/s"))
+
+
+# --- modes ------------------------------------------------------------------------------------
+
+def test_modes_of_a_continuous_model_and_of_its_sampled_twin_agree():
+    truth = modal_system(FREQUENCIES[:2], DAMPINGS[:2], 2, 1, seed=4)
+    for model in (truth, truth.to_discrete(0.01)):
+        found = moli.modes(model)
+        assert np.allclose([mode.natural_frequency for mode in found], FREQUENCIES[:2], rtol=1e-10)
+        assert np.allclose([mode.damping for mode in found], DAMPINGS[:2], rtol=1e-8)
+        assert np.allclose([mode.frequency_hz for mode in found], FREQUENCIES[:2] / (2 * np.pi), rtol=1e-10)
+    # the shape of mode i is C v_i: the pair's columns of C as one complex vector, largest entry 1
+    shape = truth.C[:, 0] + 1j * truth.C[:, 1]
+    shape = shape / shape[np.argmax(np.abs(shape))]
+    assert np.allclose(moli.modes(truth)[0].shape, shape, rtol=1e-10)
+
+
+def test_a_real_pole_is_one_mode_critically_damped_and_a_delay_state_has_none():
+    model = moli.StateSpaceModel([[0.5]], [[1.0]], [[2.0]], Ts=0.1)
+    (mode,) = moli.modes(model)
+    assert not mode.oscillatory and np.isclose(mode.damping, 1.0) and np.isclose(mode.natural_frequency, np.log(2) / 0.1)
+    with pytest.raises(DataError, match="pole at z = 0"):
+        moli.modes(moli.StateSpaceModel([[0.0]], [[1.0]], [[1.0]]))
