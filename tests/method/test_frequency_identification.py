@@ -102,6 +102,15 @@ def test_modes_of_a_noisy_mimo_modal_response(seed, level):
     assert np.all(np.abs(damping / DAMPINGS - 1) < 0.10)
 
 
+def test_an_order_that_misses_the_modes_of_one_part_of_the_band_is_not_taken():
+    # modes gathered in the upper half of the band: an order too low errs only there; the paired
+    # rule must see that loss as the band-wide batches give it, not as one batch's outlier
+    frequencies, dampings = np.array([39.4, 59.8, 79.5, 111.5]), np.array([0.017, 0.043, 0.033, 0.005])
+    truth = modal_system(frequencies, dampings, 3, 2, seed=21)
+    result = moli.identify(noisy(truth, np.logspace(0, np.log10(300), 2000), 0.02, 3))
+    assert result.selected.order == 8
+
+
 def test_a_sampled_noisy_response_has_its_bands_and_they_hold_the_truth():
     # 95 % pointwise bands from the sandwich: the share of lines whose band holds the true gain
     # is a rate over 1500 correlated lines; 0.8 is far below 0.95 yet far above what a covariance
