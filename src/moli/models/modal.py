@@ -7,6 +7,13 @@ sampled model's pole ``z`` is read through its continuous equivalent ``lambda = 
 frequency). The mode's shape is ``C v`` for its right eigenvector ``v``, the output
 pattern in which the mode appears in every response, scaled so that its largest entry is
 1 (a complex shape: the phases of the outputs relative to that one).
+
+A model with a covariance (``cov_factor``) also gives each mode's standard deviations, to
+first order: a simple eigenvalue moves by ``d lambda = w^H dA v / (w^H v)`` (``w`` its left
+eigenvector), a sampled pole's continuous equivalent by ``dz / (z Ts)``, and
+``d omega_n = Re(conj(lambda) d lambda) / |lambda|``,
+``d zeta = -Re(d lambda) / |lambda| - Re(lambda) d omega_n / |lambda|^2``, summed in squares over
+the factor's independent directions.
 """
 
 from __future__ import annotations
@@ -43,6 +50,8 @@ class Mode:
         The outputs' share of the mode, largest entry 1.
     oscillatory : bool
         A complex pair (True) or a real pole.
+    natural_frequency_std, damping_std : float or None
+        First-order standard deviations from the model's covariance; None without one.
     """
 
     pole: complex
@@ -51,6 +60,29 @@ class Mode:
     damping: float
     shape: np.ndarray
     oscillatory: bool
+    natural_frequency_std: float | None = None
+    damping_std: float | None = None
+
+
+def _spreads(model: Any, value: complex, vector: np.ndarray, left: np.ndarray,
+             Ts: float | None) -> tuple[float, float] | tuple[None, None]:
+    """Standard deviations of the natural frequency and damping of the pole ``value`` (continuous equivalent)."""
+    factor = getattr(model, "cov_factor", None)
+    if factor is None:
+        return None, None
+    n = vector.size
+    directions = np.asarray(factor)[: n * n].T.reshape(-1, n, n)                        # dA per direction
+    moved = np.einsum("i,kij,j->k", left.conj(), directions, vector) / (left.conj() @ vector)
+    pole = value
+    if Ts is not None:
+        z = np.exp(value * Ts)
+        moved = moved / (z * Ts)
+    scale = abs(pole)
+    if scale == 0:
+        return None, None
+    natural = np.real(np.conj(pole) * moved) / scale
+    damping = -np.real(moved) / scale - pole.real * natural / scale**2
+    return float(np.sqrt(np.sum(natural**2))), float(np.sqrt(np.sum(damping**2)))
 
 
 def modes(model: Any) -> tuple[Mode, ...]:
@@ -85,6 +117,7 @@ def modes(model: Any) -> tuple[Mode, ...]:
     if A.shape[0] == 0:
         raise DataError("the model has no states, hence no modes")
     values, vectors = np.linalg.eig(A)
+    lefts = np.linalg.inv(vectors).conj().T            # w_i^H A = lambda_i w_i^H, w_i^H v_i = 1
     Ts = getattr(model, "Ts", None)
     if Ts is not None:
         if np.any(np.abs(values) == 0):
@@ -92,7 +125,7 @@ def modes(model: Any) -> tuple[Mode, ...]:
                             "equivalent; convert the delay states out (model.delays_as_states) or drop them")
         values = np.log(values.astype(complex)) / Ts
     found = []
-    for value, vector in zip(values, vectors.T):
+    for value, vector, left in zip(values, vectors.T, lefts.T):
         scale = abs(value)
         oscillatory = value.imag > REAL_POLE * scale
         if value.imag < -REAL_POLE * scale:
@@ -102,5 +135,7 @@ def modes(model: Any) -> tuple[Mode, ...]:
         shape = shape / largest
         pole = complex(value) if oscillatory else complex(value.real, 0.0)
         damping = -pole.real / scale if scale > 0 else float("nan")
-        found.append(Mode(pole, float(scale), float(scale / (2 * np.pi)), float(damping), shape, bool(oscillatory)))
+        spreads = _spreads(model, complex(value), vector, left, Ts)
+        found.append(Mode(pole, float(scale), float(scale / (2 * np.pi)), float(damping), shape, bool(oscillatory),
+                          *spreads))
     return tuple(sorted(found, key=lambda mode: mode.natural_frequency))

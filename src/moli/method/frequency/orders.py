@@ -20,6 +20,10 @@ from .refinement import PATH_STEPS, refine_modal
 from .settings import FrequencySettings
 from .subspace import bilinear_points, input_and_feedthrough, observability_basis, poles_and_output
 
+# A subspace model with a pole this close to z = -1 (relative condition of A_d + I) has one at an
+# infinite s: no continuous model maps to it, and the order is left out.
+MAX_SHIFT_CONDITION = 1e12
+
 __all__ = ["FitDomain", "FrequencyStep", "fit_domain", "problem_on", "held_out_shares", "start_model", "fit_order",
            "subspace_basis", "weights_of", "band_wide_order"]
 
@@ -118,7 +122,7 @@ def start_model(basis: np.ndarray, order: int, problem: FitProblem, settings: Fr
     A, C = poles_and_output(basis, order, problem.G.shape[1])
     if continuous:
         shifted = A + np.eye(order)
-        if np.linalg.cond(shifted) > 1e12:         # a pole at z = -1 is one at infinite s
+        if np.linalg.cond(shifted) > MAX_SHIFT_CONDITION:
             return None
         A, C = np.linalg.solve(shifted, A - np.eye(order)), np.linalg.solve(shifted.T, C.T).T
     B, D = input_and_feedthrough(A, C, problem.points, problem.G, problem.weights, settings.feedthrough)
