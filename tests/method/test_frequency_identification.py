@@ -111,6 +111,25 @@ def test_an_order_that_misses_the_modes_of_one_part_of_the_band_is_not_taken():
     assert result.selected.order == 8
 
 
+def test_periodic_records_averaged_into_a_response_give_the_modes():
+    # the chain from time records: a multisine of 8192 samples (lines 0.077 rad/s apart, 8-10
+    # per half-power band of the 23 and 41 rad/s modes), five noisy periods in steady state,
+    # the first dropped; output noise 2 % of the output's spread on every sample
+    truth = modal_system(FREQUENCIES[1:3], DAMPINGS[1:3], 2, 1, seed=6).to_discrete(0.01)
+    length, lines = 8192, np.arange(1, 1200)
+    phases = np.random.default_rng(2).uniform(0, 2 * np.pi, lines.size)
+    period = np.cos(2 * np.pi * np.outer(np.arange(length), lines) / length + phases).sum(axis=1)
+    u = np.tile(period, 10)[:, None]
+    y = truth.simulate(u)[5 * length:]          # five periods for the lightly damped modes to settle
+    y = y + 0.02 * y.std(axis=0) * np.random.default_rng(3).standard_normal(y.shape)
+    frf = moli.frequency_response(moli.IOData(y, u[5 * length:], Ts=0.01), 5)
+    result = moli.identify(frf)
+    assert result.selected.order == 4
+    found = moli.modes(result.model)
+    assert np.allclose([mode.natural_frequency for mode in found], FREQUENCIES[1:3], rtol=0.002)
+    assert np.allclose([mode.damping for mode in found], DAMPINGS[1:3], rtol=0.10)
+
+
 def test_a_sampled_noisy_response_has_its_bands_and_they_hold_the_truth():
     # 95 % pointwise bands from the sandwich: the share of lines whose band holds the true gain
     # is a rate over 1500 correlated lines; 0.8 is far below 0.95 yet far above what a covariance

@@ -142,7 +142,8 @@ def identify_frequency(
     step = path[index]
     whole = problem_on(data, domain)
     theta, note, factor = step.theta, None, None
-    if settings.refine != "none" and (settings.refine != "guarded" or step.refined):
+    refined = settings.refine != "none" and (settings.refine != "guarded" or step.refined)
+    if refined:
         if phase is not None:
             phase("refinement")
         theta = refine_modal(step.layout, step.theta, whole, continuous=domain.continuous,
@@ -155,7 +156,7 @@ def identify_frequency(
         note = ("refine='none' keeps the subspace estimate, which is no minimum of the fit: no sandwich"
                 if settings.refine == "none" else "the held-out lines preferred the subspace start to its refinement")
     info = {"method": "frequency-domain subspace start, weighted FRF refinement",
-            "held_out_every": HOLD_OUT_EVERY, "order": step.order, "refined": bool(factor is not None)}
+            "held_out_every": HOLD_OUT_EVERY, "order": step.order, "refined": refined}
     model = _physical(data, domain, matrices(step.layout, theta), factor, info)
     return FrequencyResult(model=model, path=path, selected_index=index, options=options, held_out=held_out,
                            seconds=time.perf_counter() - start_time, covariance_note=note)
