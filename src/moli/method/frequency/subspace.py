@@ -20,7 +20,13 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["observability_basis", "poles_and_output", "input_and_feedthrough", "bilinear_points"]
+from ...numerics.triangular import TALL_QR_BLOCK, fold
+
+__all__ = ["observability_basis", "poles_and_output", "input_and_feedthrough", "bilinear_points", "LINE_BLOCK"]
+
+# Lines folded into the triangular factors at a time: a block's real rows (2 x 1024 x m or p)
+# stay within a few megabytes.
+LINE_BLOCK = 1024
 
 
 def bilinear_points(s: np.ndarray) -> np.ndarray:
@@ -32,15 +38,21 @@ def observability_basis(z: np.ndarray, G: np.ndarray, line_weights: np.ndarray, 
     """Left singular vectors of the projected ``𝒢`` (columns by decreasing singular value), shape (q p, q p).
 
     ``line_weights`` scales each line's columns of ``𝒢`` and ``𝒲`` alike (which keeps
-    ``𝒢 = O X + Γ 𝒲``), so that each line counts by its precision.
+    ``𝒢 = O X + Γ 𝒲``), so that each line counts by its precision. The triangular factor of
+    ``[𝒲; 𝒢]^T`` is folded :data:`LINE_BLOCK` lines at a time: memory does not grow with the lines.
     """
     F, p, m = G.shape
-    powers = z[None, :] ** np.arange(block_rows)[:, None] * line_weights[None, :]          # (q, F)
-    response = (powers[:, None, :, None] * G.transpose(1, 0, 2)[None]).reshape(block_rows * p, F * m)
-    inputs = (powers[:, None, :, None] * np.eye(m)[None, :, None, :]).reshape(block_rows * m, F * m)
-    stacked = np.concatenate([inputs, response])
-    real = np.concatenate([stacked.real, stacked.imag], axis=1)
-    lower = np.linalg.qr(real.T, mode="r").T                                 # [𝒲; 𝒢] = L Q
+    triangle = None
+    for start in range(0, F, LINE_BLOCK):
+        part = slice(start, start + LINE_BLOCK)
+        lines = z[part].size
+        powers = z[None, part] ** np.arange(block_rows)[:, None] * line_weights[None, part]          # (q, Fb)
+        response = (powers[:, None, :, None] * G[part].transpose(1, 0, 2)[None]).reshape(block_rows * p, lines * m)
+        inputs = (powers[:, None, :, None] * np.eye(m)[None, :, None, :]).reshape(block_rows * m, lines * m)
+        stacked = np.concatenate([inputs, response])
+        triangle = fold(triangle, np.concatenate([stacked.real, stacked.imag], axis=1), TALL_QR_BLOCK)
+    lower = np.zeros((block_rows * (m + p),) * 2)
+    lower[:, : triangle.shape[0]] = triangle.T                                 # [𝒲; 𝒢] = L Q
     projected = lower[block_rows * m:, block_rows * m:]
     basis, _, _ = np.linalg.svd(projected)
     return basis
@@ -58,21 +70,27 @@ def input_and_feedthrough(A: np.ndarray, C: np.ndarray, points: np.ndarray, G: n
     """``B`` and ``D`` minimizing ``sum_k |w_k (C (s_k I - A)^-1 B + D - G_k)|^2`` for fixed ``A``, ``C``.
 
     ``weights`` (F, p, m) weigh each entry; each input's column is its own least squares
-    (the weights differ between columns, the regressors do not).
+    (the weights differ between columns, the regressors do not), its ``[X | y]`` folded
+    :data:`LINE_BLOCK` lines at a time.
     """
     n, p, m = A.shape[0], C.shape[0], G.shape[2]
-    pencil = points[:, None, None] * np.eye(n) - A
-    # C (s I - A)^-1, one solve of the transposed pencil per line
-    output_map = np.linalg.solve(pencil.transpose(0, 2, 1), np.broadcast_to(C.T, (points.size, n, p))).transpose(0, 2, 1)
-    regressors = output_map if not feedthrough else np.concatenate(
-        [output_map, np.broadcast_to(np.eye(p), (points.size, p, p))], axis=2)
+    unknowns = n + (p if feedthrough else 0)
+    triangles: list[np.ndarray | None] = [None] * m
+    for start in range(0, points.size, LINE_BLOCK):
+        part = slice(start, start + LINE_BLOCK)
+        s = points[part]
+        pencil = s[:, None, None] * np.eye(n) - A
+        # C (s I - A)^-1, one solve of the transposed pencil per line
+        output_map = np.linalg.solve(pencil.transpose(0, 2, 1), np.broadcast_to(C.T, (s.size, n, p))).transpose(0, 2, 1)
+        regressors = output_map if not feedthrough else np.concatenate(
+            [output_map, np.broadcast_to(np.eye(p), (s.size, p, p))], axis=2)
+        for j in range(m):
+            rows = np.concatenate([regressors, G[part, :, j, None]], axis=2) * weights[part, :, j, None]
+            rows = rows.reshape(-1, unknowns + 1)
+            triangles[j] = fold(triangles[j], np.concatenate([rows.real, rows.imag]).T, TALL_QR_BLOCK)
     B, D = np.zeros((n, m)), np.zeros((p, m))
-    for j in range(m):
-        rows = regressors * weights[:, :, j, None]                               # (F, p, n [+ p])
-        target = G[:, :, j] * weights[:, :, j]
-        X = np.concatenate([rows.real, rows.imag]).reshape(-1, rows.shape[2])
-        y = np.concatenate([target.real, target.imag]).ravel()
-        solution = np.linalg.lstsq(X, y, rcond=None)[0]
+    for j, triangle in enumerate(triangles):
+        solution = np.linalg.lstsq(triangle[:, :unknowns], triangle[:, unknowns], rcond=None)[0]
         B[:, j] = solution[:n]
         if feedthrough:
             D[:, j] = solution[n:]
