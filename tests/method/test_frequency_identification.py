@@ -160,6 +160,15 @@ def test_the_paths_orders_are_judged_on_interleaved_held_out_lines():
     assert np.all(np.diff(result.held_out) == 5) and result.held_out[-1] >= SMALL_DATA.F - 5
 
 
+def test_refine_none_keeps_the_subspace_start_and_selected_refines_only_the_chosen_order():
+    seen = []
+    start = moli.identify(SMALL_DATA, nmax=3, refine="none", progress=seen.append)
+    assert [step.order for step in seen] == [1, 2, 3] and not any(step.refined for step in seen)
+    assert start.model.cov_factor is None and "refine='none'" in start.covariance_note
+    selected = moli.identify(SMALL_DATA, nmax=3, refine="selected")
+    assert not any(step.refined for step in selected.path) and selected.model.cov_factor is not None
+
+
 def test_an_unstable_system_is_fitted_as_it_is_when_max_radius_is_none_and_mirrored_by_default():
     unstable = moli.ContinuousModel(np.array([[0.2, 5.0], [-5.0, 0.2]]), np.array([[1.0], [0.0]]),
                                     np.array([[1.0, 1.0]]), np.zeros((1, 1)), ("y1",), ("u1",), np.zeros(1),
