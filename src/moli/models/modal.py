@@ -25,9 +25,10 @@ import numpy as np
 
 from ..errors import DataError
 
-__all__ = ["Mode", "modes"]
+__all__ = ["Mode", "modes", "REAL_POLE"]
 
-# A pole whose imaginary part is below this fraction of its modulus is real (one mode, not a pair).
+# A pole whose imaginary part is below this fraction of its modulus is real, one mode and not a
+# pair (eig's round-off leaves ~1e-16 on a real pole; an oscillatory pole with that little is none).
 REAL_POLE = 1e-9
 
 

@@ -18,12 +18,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ModalLayout", "modal_parameters", "split", "matrices", "matrix_jacobian", "is_stable", "reflected",
-           "REAL_POLE"]
+from ...models.modal import REAL_POLE
 
-# A pole whose imaginary part is below this fraction of its modulus is real (eig's
-# round-off leaves ~1e-16 on a real pole; an oscillatory pole with that little is none).
-REAL_POLE = 1e-9
+__all__ = ["ModalLayout", "modal_parameters", "split", "matrices", "matrix_jacobian", "is_stable", "reflected"]
+
 # Eigenvector bases worse conditioned than this (a defective A, two poles merging) give no modal form.
 MAX_CONDITION = 1e12
 

@@ -10,6 +10,7 @@ with ``omega_c`` the lines' geometric mean (:class:`FitDomain`), so that the pol
 from __future__ import annotations
 
 from dataclasses import dataclass
+
 import numpy as np
 
 from ...data.frequency_data import FrequencyData
@@ -20,12 +21,12 @@ from .refinement import PATH_STEPS, refine_modal
 from .settings import FrequencySettings
 from .subspace import bilinear_points, input_and_feedthrough, observability_basis, poles_and_output
 
-# A subspace model with a pole this close to z = -1 (relative condition of A_d + I) has one at an
-# infinite s: no continuous model maps to it, and the order is left out.
-MAX_SHIFT_CONDITION = 1e12
-
 __all__ = ["FitDomain", "FrequencyStep", "fit_domain", "problem_on", "held_out_shares", "start_model", "fit_order",
-           "subspace_basis", "weights_of", "band_wide_order"]
+           "subspace_basis", "weights_of", "band_wide_order", "MAX_SHIFT_CONDITION"]
+
+# A subspace model with a pole this close to z = -1 (the condition number of A_d + I) has one at
+# an infinite s: no continuous model maps to it, and the order is left out.
+MAX_SHIFT_CONDITION = 1e12
 
 
 @dataclass(frozen=True)
@@ -140,7 +141,7 @@ def start_model(basis: np.ndarray, order: int, problem: FitProblem, settings: Fr
 
 def fit_order(order: int, basis: np.ndarray, estimation: FitProblem, held_out: FitProblem,
               settings: FrequencySettings, continuous: bool, *, refine: bool) -> FrequencyStep | None:
-    """The step of ``order``: the start, refined when ``refine`` (kept under "guarded" where held out lines prefer it)."""
+    """The step of ``order``: the start, refined when ``refine`` (kept under "guarded" where the held-out lines prefer it)."""
     start = start_model(basis, order, estimation, settings, continuous)
     if start is None:
         return None
