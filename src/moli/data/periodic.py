@@ -115,5 +115,6 @@ def frequency_response(data: IOData | Sequence[IOData], periods: int, *, transie
     spread = np.sum(np.abs(Y - Ymean[:, None]) ** 2, axis=1) / ((P - drop) * (P - drop - 1))   # (e, lines, p)
     variance = np.einsum("elp,lej->lpj", spread[:, lines], np.abs(inverse) ** 2)
     omega = 2 * np.pi * lines / (length * Ts)
-    return FrequencyData(omega, G, unit="rad/s", Ts=Ts, variance=np.maximum(variance, FLOOR * np.abs(G) ** 2 + np.finfo(float).tiny),
+    variance = np.maximum(variance, FLOOR * np.abs(G) ** 2 + np.finfo(float).tiny)
+    return FrequencyData(omega, G, unit="rad/s", Ts=Ts, variance=variance,
                          output_names=records[0].output_names, input_names=records[0].input_names)

@@ -110,7 +110,8 @@ def _weighted(layout: ModalLayout, theta: np.ndarray, problem: FitProblem, part:
     return _jacobian(layout, P, Q) * weights[..., None], weights * (model - problem.G[part])
 
 
-def normal_equations(layout: ModalLayout, theta: np.ndarray, problem: FitProblem) -> tuple[np.ndarray, np.ndarray, float]:
+def normal_equations(layout: ModalLayout, theta: np.ndarray,
+                     problem: FitProblem) -> tuple[np.ndarray, np.ndarray, float]:
     """``J^T J``, ``J^T r`` (real and imaginary rows together) and the cost ``|r|^2``, in one pass over the lines.
 
     The size x size products are all that is kept; a step's accuracy needs no more, as the

@@ -13,13 +13,14 @@ its covariance is the sandwich of that refinement (docs/frequency.md).
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
 
 from ...data.frequency_data import FrequencyData
-from ...errors import DataError, OptionError
+from ...errors import DataError, OptionError, UnstableModelWarning
 from ...models.continuous import ContinuousModel
 from ...models.statespace import StateSpaceModel
 from ..options import IdentifyOptions
@@ -158,5 +159,10 @@ def identify_frequency(
     info = {"method": "frequency-domain subspace start, weighted FRF refinement",
             "held_out_every": HOLD_OUT_EVERY, "order": step.order, "refined": refined}
     model = _physical(data, domain, matrices(step.layout, theta), factor, info)
+    if not model.is_stable():          # only with max_radius=None: the refinement keeps the bound otherwise
+        worst = (f"largest real part {np.max(model.poles().real):.4g}" if domain.continuous
+                 else f"largest pole modulus {np.max(np.abs(model.poles())):.4g}")
+        warnings.warn(UnstableModelWarning(f"the model fitted to the frequency data is unstable ({worst}), as "
+                                           "max_radius=None allows"), stacklevel=3)
     return FrequencyResult(model=model, path=path, selected_index=index, options=options, held_out=held_out,
                            seconds=time.perf_counter() - start_time, covariance_note=note)

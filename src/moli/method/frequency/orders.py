@@ -141,7 +141,8 @@ def start_model(basis: np.ndarray, order: int, problem: FitProblem, settings: Fr
 
 def fit_order(order: int, basis: np.ndarray, estimation: FitProblem, held_out: FitProblem,
               settings: FrequencySettings, continuous: bool, *, refine: bool) -> FrequencyStep | None:
-    """The step of ``order``: the start, refined when ``refine`` (kept under "guarded" where the held-out lines prefer it)."""
+    """The step of ``order``: the start, refined when ``refine`` (under "guarded", kept where the held-out
+    lines prefer it)."""
     start = start_model(basis, order, estimation, settings, continuous)
     if start is None:
         return None

@@ -54,7 +54,8 @@ def _step(curvature: np.ndarray, gradient: np.ndarray, scale: np.ndarray, dampin
 
 def refine_modal(layout: ModalLayout, theta: np.ndarray, problem: FitProblem, *, continuous: bool,
                  radius: float | None, max_steps: int = MAX_STEPS) -> Refined:
-    """Minimize the weighted FRF error from ``theta`` (stable where ``radius`` is not None), ``max_steps`` Jacobians at most."""
+    """Minimize the weighted FRF error from ``theta`` (stable where ``radius`` is not None), forming
+    ``max_steps`` Jacobians at most."""
     theta = theta.copy()
     damping, steps = FIRST_DAMPING, 0
     N, g, current = normal_equations(layout, theta, problem)
