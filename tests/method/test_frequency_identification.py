@@ -131,16 +131,21 @@ def test_periodic_records_averaged_into_a_response_give_the_modes():
 
 
 def test_a_sampled_noisy_response_has_its_bands_and_they_hold_the_truth():
-    # 95 % pointwise bands from the sandwich: the share of lines whose band holds the true gain
-    # is a rate over 1500 correlated lines; 0.8 is far below 0.95 yet far above what a covariance
-    # off by a factor of two (0.68 of the lines) would give.
+    # 95 % pointwise bands from the sandwich. One record's lines err together (a mode's frequency
+    # off moves every line near its peak), so the share of lines whose band holds the true gain
+    # scatters from record to record (0.64-1.00 over 12 seeds, sd about 0.12); its mean over six
+    # records spreads by about 0.05. 0.80-0.99 is 2-3 of those below and above the 0.91 measured
+    # over 12 records, and excludes bands half as wide (0.68 per line at best) or twice as wide
+    # (0.9999 per line).
     truth = modal_system(FREQUENCIES[:2], DAMPINGS[:2], 2, 1, seed=3).to_discrete(0.01)
     omega = np.logspace(0, np.log10(np.pi / 0.01), 1500)
-    result = moli.identify(noisy(truth, omega, 0.02, 7, Ts=0.01))
-    lower, upper = result.model.magnitude_bands(omega)
     gain = np.abs(truth.frequency_response(omega))
-    held = np.mean((lower <= gain) & (gain <= upper))
-    assert result.model.cov_factor is not None and 0.8 <= held <= 1.0
+    held = []
+    for seed in range(6):
+        model = moli.identify(noisy(truth, omega, 0.02, seed, Ts=0.01)).model
+        lower, upper = model.magnitude_bands(omega)
+        held.append(np.mean((lower <= gain) & (gain <= upper)))
+    assert 0.80 <= np.mean(held) <= 0.99
 
 
 # --- options and bad calls --------------------------------------------------------------------
