@@ -27,7 +27,7 @@ LAYERS = ("errors", "numerics", "data", "models", "validation", "method", "strea
 # and before those that read it; pipeline/ holds identify()'s steps, which call them all;
 # the modules at method/'s root (identification, result) sit above every stage.
 METHOD_STAGES = ("structure", "least_squares", "kernel", "tuning", "options", "search", "refinement", "closed_loop",
-                 "uncertainty", "selection", "continuous", "pipeline")
+                 "uncertainty", "selection", "continuous", "frequency", "pipeline")
 # method/'s root holds only the entry point, its result and the package's names.
 METHOD_ROOT = {"__init__", "identification", "result"}
 # About a screen or two per module.
@@ -146,6 +146,15 @@ def _private_imports() -> list[str]:
 
 def test_no_module_imports_another_modules_private_names():
     assert _private_imports() == []
+
+
+def test_identify_is_a_short_chain_of_stage_calls():
+    # the entry point stays a screen of calls, each step's work in the stage that owns it
+    path = PACKAGE / "method" / "identification.py"
+    identify = next(node for node in ast.parse(path.read_text()).body
+                    if isinstance(node, ast.FunctionDef) and node.name == "identify")
+    assert identify.end_lineno - identify.lineno + 1 <= 150
+    assert len(_graph()["moli.method.identification"]) <= 10
 
 
 def test_the_stage_checks_can_fail():

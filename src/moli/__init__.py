@@ -21,6 +21,7 @@ from .errors import (
     ClosedLoopWarning, DataError, DataQualityWarning, FilterError, IllConditionedWarning,
     IrregularSamplingWarning, ModelFileError, MoliError, NoFitWarning, OptionError, OrderBoundWarning,
     SamplingPeriodWarning, ShortValidationWarning, StructureError, UnstableModelWarning, WeakReferenceWarning,
+    FrequencyConventionWarning,
 )
 
 # public name -> the subpackage that defines it
@@ -28,8 +29,9 @@ _HOMES = {
     "IOData": "data", "merge": "data", "read_data": "data", "from_dataframe": "data", "to_dataframe": "data", "load_daisy": "data", "list_daisy": "data",
     "DatasetChecksumError": "data", "DatasetUnavailableError": "data",
     "random_binary_signal": "data", "check_data": "data",
+    "FrequencyData": "data", "read_frequency_data": "data", "frequency_response": "data",
     "flag_outliers": "data", "remove_outliers": "data", "OutlierReport": "data",
-    "StateSpaceModel": "models", "ContinuousModel": "models", "load_model": "models",
+    "StateSpaceModel": "models", "ContinuousModel": "models", "load_model": "models", "modes": "models", "Mode": "models",
     "Comparison": "validation", "compare": "validation", "cost_j": "validation",
     "nrmse_fit": "validation", "vaf": "validation", "predict": "validation",
     "residual_analysis": "validation", "ResidualAnalysis": "validation",
@@ -38,7 +40,7 @@ _HOMES = {
     "estimate": "method", "divisor": "method", "divisors": "method",
     "filter_polynomial": "method", "IdentificationResult": "method", "identify": "method",
     "IdentifyOptions": "method", "PathStep": "method", "estimate_noise_model": "method",
-    "estimate_covariance": "method", "ContinuousResult": "method",
+    "estimate_covariance": "method", "ContinuousResult": "method", "FrequencyResult": "method",
     "impulse_response": "method", "ImpulseResponse": "method",
     "identify_many": "fleets", "FleetResult": "fleets", "estimate_chunks": "fleets",
     "RecursiveMoli": "streaming", "ChunkedEstimator": "streaming", "FilterBank": "streaming",
@@ -50,23 +52,23 @@ __all__ = [
     "__version__", "MoliError", "DataError", "FilterError", "IllConditionedWarning",
     "ModelFileError", "OptionError", "StructureError", "UnstableModelWarning", "DataQualityWarning",
     "OrderBoundWarning", "ClosedLoopWarning", "IrregularSamplingWarning", "SamplingPeriodWarning",
-    "ShortValidationWarning", "WeakReferenceWarning", "NoFitWarning",
+    "ShortValidationWarning", "WeakReferenceWarning", "NoFitWarning", "FrequencyConventionWarning",
     *_HOMES, *_SUBPACKAGES,
 ]
 
 if TYPE_CHECKING:  # what the lazy names are, for type checkers and IDEs
     from . import app, control, data, fleets, method, models, streaming, systems, validation
     from .data import (
-        DatasetChecksumError, DatasetUnavailableError, IOData, OutlierReport, flag_outliers,
-        from_dataframe, list_daisy, load_daisy, merge, random_binary_signal, read_data,
+        DatasetChecksumError, DatasetUnavailableError, FrequencyData, IOData, OutlierReport, flag_outliers,
+        frequency_response, from_dataframe, read_frequency_data, list_daisy, load_daisy, merge, random_binary_signal, read_data,
         remove_outliers, to_dataframe,
     )
     from .fleets import FleetResult, estimate_chunks, identify_many
     from .method import (
-        ContinuousResult, IdentificationResult, IdentifyOptions, ImpulseResponse, PathStep, divisor, divisors,
-        estimate, estimate_covariance, estimate_noise_model, filter_polynomial, identify, impulse_response,
+        ContinuousResult, FrequencyResult, IdentificationResult, IdentifyOptions, ImpulseResponse, PathStep, divisor,
+        divisors, estimate, estimate_covariance, estimate_noise_model, filter_polynomial, identify, impulse_response,
     )
-    from .models import ContinuousModel, StateSpaceModel, load_model
+    from .models import ContinuousModel, Mode, StateSpaceModel, load_model, modes
     from .streaming import ChunkedEstimator, FilterBank, RecursiveMoli
     from .systems import example_data, example_plant, experiment
     from .validation import (

@@ -15,7 +15,7 @@ __all__ = [
     "ControlDesignError", "wrong_type",
     "UnstableModelWarning", "IllConditionedWarning", "DataQualityWarning", "OrderBoundWarning",
     "ClosedLoopWarning", "IrregularSamplingWarning", "SamplingPeriodWarning", "ShortValidationWarning",
-    "WeakReferenceWarning", "NoFitWarning",
+    "WeakReferenceWarning", "NoFitWarning", "FrequencyConventionWarning",
 ]
 
 
@@ -116,6 +116,12 @@ class SamplingPeriodWarning(UserWarning):
     assumed, with how to set it. Not given for a column named ``time``, ``t``,
     ``timestamp``, ``date`` or ``datetime``; giving ``Ts=`` or the time column silences it.
     """
+
+
+class FrequencyConventionWarning(UserWarning):
+    """Says how a reader of frequency responses read a file: the frequency column and its
+    unit, and each channel pair's columns (real and imaginary parts, or magnitude and phase
+    with their units)."""
 
 
 class IrregularSamplingWarning(UserWarning):

@@ -10,7 +10,6 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import moli
-from moli.method import identification
 from moli.method.pipeline import finishing, order_choice
 from moli.method.pipeline.interruption import SELECTION_CHECKS
 from moli.method.refinement import refined_steps
@@ -45,7 +44,7 @@ def test_ctrl_c_after_the_noise_model_keeps_the_complete_model(halves, monkeypat
     # the model is complete once the noise model is attached: Ctrl-C during the checks of its
     # selection that follow (warnings only) skips them and keeps it
     whole = moli.identify(*halves, nmax=NMAX)
-    monkeypatch.setattr(identification, "warn_if_short_selection", interrupt)
+    monkeypatch.setattr(finishing, "warn_if_short_selection", interrupt)
     cut = moli.identify(*halves, nmax=NMAX)
     assert cut.interrupted and cut.skipped == (SELECTION_CHECKS,)
     assert cut.model.info["interrupted"] == {"skipped": [SELECTION_CHECKS]}

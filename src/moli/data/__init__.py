@@ -1,10 +1,13 @@
-"""Records in: the IOData container, file readers and writers, DaISy data sets, test signals."""
+"""Records in: the IOData container, file readers and writers, DaISy data sets, test signals, frequency responses."""
 
 from .chunks import RecordChunk, list_chunks
 from .daisy import (
     DaisyInfo, DatasetChecksumError, DatasetUnavailableError, daisy_path, daisy_url, list_daisy,
     load_daisy,
 )
+from .frequency_data import FrequencyData
+from .frequency_files import read_frequency_data
+from .periodic import frequency_response
 from .files import file_sha256, fingerprint, read_data, to_dataframe
 from .iodata import IOData, merge
 from .outliers import OutlierReport, flag_outliers, remove_outliers
@@ -20,4 +23,5 @@ __all__ = [
     "DaisyInfo", "DatasetChecksumError", "DatasetUnavailableError", "daisy_path", "daisy_url",
     "list_daisy", "load_daisy", "SignalError", "random_binary_signal", "QualityIssue", "check_data",
     "screen", "OutlierReport", "flag_outliers", "remove_outliers", "RecordChunk", "list_chunks",
+    "FrequencyData", "read_frequency_data", "frequency_response",
 ]

@@ -8,11 +8,13 @@ them): :mod:`.structure` (lists of observability indices, the filter α, regress
 :mod:`.refinement` (output error, the direct method's prediction error),
 :mod:`.closed_loop`, :mod:`.uncertainty` (covariance, noise model), :mod:`.selection`
 (order rules, the guarded refinement), :mod:`.continuous` (the same method in continuous
-time, docs/continuous.md) and :mod:`.pipeline` (the steps of :func:`identify`, in
+time, docs/continuous.md), :mod:`.frequency` (models from measured frequency responses,
+docs/frequency.md) and :mod:`.pipeline` (the steps of :func:`identify`, in
 :mod:`.identification`). Many records at once: :mod:`moli.fleets`.
 """
 
 from .continuous import ContinuousResult, ContinuousStep
+from .frequency import FrequencyResult, FrequencyStep
 from .kernel.impulse import ImpulseResponse, impulse_response
 from .least_squares.estimation import estimate
 from .least_squares.realization import realize
@@ -31,6 +33,6 @@ __all__ = [
     "estimate", "realize", "divisor", "divisors", "filter_polynomial", "IdentificationResult",
     "identify", "IdentifyOptions", "estimate_noise_model", "RefineResult", "refine", "refine_each", "PathStep", "exhaustive",
     "TuningResult", "default_omega", "tune_filter", "estimate_covariance",
-    "ContinuousResult", "ContinuousStep", "prediction_error_refine", "ReferenceProjection", "fit_projection",
-    "ImpulseResponse", "impulse_response",
+    "ContinuousResult", "ContinuousStep", "FrequencyResult", "FrequencyStep", "prediction_error_refine",
+    "ReferenceProjection", "fit_projection", "ImpulseResponse", "impulse_response",
 ]

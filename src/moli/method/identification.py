@@ -11,35 +11,35 @@ from __future__ import annotations
 import time
 from typing import Any, Callable
 
-from ..data.iodata import IOData
+from ..data import FrequencyData, IOData
 from .continuous.identification import ContinuousResult, identify_continuous
+from .frequency.identification import FrequencyResult, identify_frequency
 from .options import IdentifyOptions, options_section
-from .pipeline.finishing import record_of_making, refine_and_finish
-from .pipeline.interruption import SELECTION_CHECKS, Phases, post_path_phases
+from .pipeline.finishing import checked_selection, record_of_making, refine_and_finish
+from .pipeline.interruption import Phases, post_path_phases
 from .pipeline.order_choice import choose_order
 from .pipeline.preparation import call_options, check_hooks, prepare, split_records
 from .result import IdentificationResult
 from .search.greedy_path import PathStep, StructureSearch, path_until_interrupted
-from .selection.checks import warn_if_at_bound, warn_if_no_better_than_mean, warn_if_short_selection
 
 __all__ = ["IdentificationResult", "identify"]
 
 
 def identify(
-    data: IOData,
+    data: IOData | FrequencyData,
     validation: IOData | None = None,
     options: IdentifyOptions | None = None,
     *,
     progress: Callable[[PathStep], None] | None = None,
     phase: Callable[[str], None] | None = None,
     **overrides: Any,
-) -> IdentificationResult | ContinuousResult:
+) -> IdentificationResult | ContinuousResult | FrequencyResult:
     """Identify a multivariable state-space model with MOLI-ZOFT.
 
     Parameters
     ----------
-    data : IOData
-        Estimation record.
+    data : IOData or FrequencyData
+        Estimation record, or a measured frequency response (docs/frequency.md).
     validation : IOData, optional
         Validation record, used only by the order rule. When omitted, the last
         30 % of ``data`` is held out for it (``result.validation_source`` says so).
@@ -63,7 +63,8 @@ def identify(
     -------
     IdentificationResult
         Or, with ``time="continuous"``, a :class:`ContinuousResult` whose model is a
-        :class:`ContinuousModel` (docs/continuous.md).
+        :class:`ContinuousModel` (docs/continuous.md); from :class:`FrequencyData`, a
+        :class:`FrequencyResult` (docs/frequency.md).
 
     Raises
     ------
@@ -86,6 +87,8 @@ def identify(
     False
     """
     options = call_options(options, overrides)
+    if isinstance(data, FrequencyData):
+        return identify_frequency(data, validation, options, progress, phase)
     check_hooks(data, progress, phase)
     estimation, validation, source = split_records(data, validation, options)
     nmax = options.path_end(data.p)
@@ -104,19 +107,9 @@ def identify(
     if not phases.skipped:
         refine_and_finish(selection, search, refined, prepared, phases, interrupted=interrupted)
     returned = selection.step               # delay-free, as the search scores it: for the bound warning
-    model, skipped = record_of_making(selection, prepared, phases.skipped), phases.skipped
-    try:
-        model.warn_if_unstable(stacklevel=2)
-        # a fixed order is the caller's choice, not the search running into its bound
-        if not interrupted and selection.step.order != options.order:
-            beyond = None if skipped else (search, selection.at_bound, returned,
-                                           None if options.refine == "none" else refined)
-            warn_if_at_bound(selection.path, selection.index, nmax, prepared.validation, options.x0, beyond=beyond)
-        warn_if_short_selection(selection.path, prepared.scored.N, prepared.scored.m, stacklevel=2)
-        warn_if_no_better_than_mean(returned.model, prepared.scored, options.x0, stacklevel=2)
-    except KeyboardInterrupt:       # the model is complete: Ctrl-C during its checks skips them alone
-        skipped += (SELECTION_CHECKS,)
-        model.info["interrupted"] = {"skipped": list(skipped)}
+    model = record_of_making(selection, prepared, phases.skipped)
+    skipped = checked_selection(selection, search, refined, prepared, returned=returned, nmax=nmax,
+                                interrupted=interrupted, skipped=phases.skipped)
     return IdentificationResult(
         model=model, path=selection.path, selected_index=selection.index, estimation=prepared.estimation,
         validation=prepared.validation, validation_source=source, options=options, nmax=nmax, omega=prepared.grid,

@@ -25,10 +25,12 @@ from ..search.long_records import reestimate
 from ..selection.guarded import PathSelection, guarded_refinement
 from ..uncertainty.matrix_covariance import estimate_covariance
 from ..uncertainty.noise_model import estimate_noise_model
-from .interruption import Phases
+from ..search.greedy_path import PathStep
+from ..selection.checks import warn_if_at_bound, warn_if_no_better_than_mean, warn_if_short_selection
+from .interruption import SELECTION_CHECKS, Phases
 from .preparation import Prepared
 
-__all__ = ["refine_and_finish", "record_of_making", "attached"]
+__all__ = ["refine_and_finish", "record_of_making", "checked_selection", "attached"]
 
 
 def refine_and_finish(selection: PathSelection, search: StructureSearch, refined: RefinedSteps, prepared: Prepared,
@@ -90,6 +92,32 @@ def record_of_making(selection: PathSelection, prepared: Prepared, skipped: tupl
     model.info["closed_loop"] = loop_record(prepared.loop, prepared.projection, prepared.feedback,
                                             prepared.options.closed_loop)
     return model
+
+
+def checked_selection(selection: PathSelection, search: StructureSearch, refined: RefinedSteps, prepared: Prepared,
+                      *, returned: PathStep, nmax: int, interrupted: bool, skipped: tuple[str, ...]) -> tuple[str, ...]:
+    """The warnings about the model returned (unstable, an order at the search's bound, a short
+    validation record, no output fitted better than its mean), pointing at the caller of
+    :func:`moli.identify`; the phases skipped, with :data:`SELECTION_CHECKS` added where Ctrl-C
+    stopped the checks (the model, complete, is kept).
+
+    ``returned`` is the chosen step as the search scores it, without input delays.
+    """
+    options, model = prepared.options, selection.step.model
+    try:
+        model.warn_if_unstable(stacklevel=3)
+        # a fixed order is the caller's choice, not the search running into its bound
+        if not interrupted and selection.step.order != options.order:
+            beyond = None if skipped else (search, selection.at_bound, returned,
+                                           None if options.refine == "none" else refined)
+            warn_if_at_bound(selection.path, selection.index, nmax, prepared.validation, options.x0, beyond=beyond,
+                             stacklevel=3)
+        warn_if_short_selection(selection.path, prepared.scored.N, prepared.scored.m, stacklevel=3)
+        warn_if_no_better_than_mean(returned.model, prepared.scored, options.x0, stacklevel=3)
+    except KeyboardInterrupt:       # the model is complete: Ctrl-C during its checks skips them alone
+        skipped += (SELECTION_CHECKS,)
+        model.info["interrupted"] = {"skipped": list(skipped)}
+    return skipped
 
 
 def attached(estimator: Callable[[StateSpaceModel, IOData], StateSpaceModel], key: str,

@@ -1,0 +1,172 @@
+"""read_frequency_data: a CSV table of frequency responses → FrequencyData, saying which convention it read.
+
+The table has one frequency column, ``frequency_hz`` or ``frequency_rad_s``, and two
+columns per output/input pair, named ``"<output>/<input> <part>"``: the parts ``re`` and
+``im`` (the complex response), or a magnitude (``dB`` for ``20 log10 |G|``, ``mag`` for
+``|G|``) and a phase (``deg`` or ``rad``). One convention holds for the whole table; the
+channel names come from the headers, in the order they first appear.
+"""
+
+from __future__ import annotations
+
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import DataError, FrequencyConventionWarning
+from .frequency_data import FrequencyData
+
+__all__ = ["read_frequency_data", "FREQUENCY_COLUMNS", "CONVENTIONS"]
+
+# The frequency column's name (any letter case) → its unit.
+FREQUENCY_COLUMNS = {"frequency_hz": "Hz", "frequency_rad_s": "rad/s"}
+# Each convention's two parts, as they end the column names (any letter case), and how it is said.
+CONVENTIONS = {
+    ("re", "im"): "real and imaginary parts",
+    ("db", "deg"): "magnitude in dB (20 log10 |G|) and phase in degrees",
+    ("db", "rad"): "magnitude in dB (20 log10 |G|) and phase in radians",
+    ("mag", "deg"): "linear magnitude and phase in degrees",
+    ("mag", "rad"): "linear magnitude and phase in radians",
+}
+PAIR_COLUMN = re.compile(r"^\s*(?P<output>[^/]+?)\s*/\s*(?P<input>.+?)\s+(?P<part>re|im|db|deg|mag|rad)\s*$",
+                         re.IGNORECASE)
+
+
+def _complex(first: np.ndarray, second: np.ndarray, convention: tuple[str, str]) -> np.ndarray:
+    if convention == ("re", "im"):
+        return first + 1j * second
+    magnitude = 10.0 ** (first / 20.0) if convention[0] == "db" else first
+    phase = np.deg2rad(second) if convention[1] == "deg" else second
+    return magnitude * np.exp(1j * phase)
+
+
+def _numbers(frame: object, column: str, source: str) -> np.ndarray:
+    import pandas as pd  # only when a table is read
+
+    values = pd.to_numeric(frame[column], errors="coerce").to_numpy(dtype=float)
+    text = frame[column].astype(str)
+    wrong = np.flatnonzero(np.isnan(values) & ~frame[column].isna().to_numpy())
+    if wrong.size:
+        raise DataError(f"{source}: column {column!r}, row {wrong[0] + 2} (counting the header as row 1) holds "
+                        f"{text.iloc[wrong[0]]!r}, not a number")
+    return values
+
+
+def _pairs(columns: list[str], source: str) -> tuple[str, dict[tuple[str, str], dict[str, str]]]:
+    """The frequency column and, per (output, input), its parts' columns."""
+    found = [c for c in columns if c.strip().lower() in FREQUENCY_COLUMNS]
+    if len(found) != 1:
+        what = "none" if not found else " and ".join(repr(c) for c in found)
+        raise DataError(f"{source}: needs exactly one frequency column, 'frequency_hz' or 'frequency_rad_s'; "
+                        f"found {what}")
+    pairs: dict[tuple[str, str], dict[str, str]] = {}
+    for column in columns:
+        if column == found[0]:
+            continue
+        match = PAIR_COLUMN.match(column)
+        if match is None:
+            raise DataError(f"{source}: column {column!r} is neither the frequency column nor "
+                            "'<output>/<input> <part>' with the part re, im, dB, mag, deg or rad")
+        parts = pairs.setdefault((match["output"], match["input"]), {})
+        part = match["part"].lower()
+        if part in parts:
+            raise DataError(f"{source}: columns {parts[part]!r} and {column!r} give the same part of one pair")
+        parts[part] = column
+    if not pairs:
+        raise DataError(f"{source}: no '<output>/<input> <part>' columns besides {found[0]!r}")
+    return found[0], pairs
+
+
+def _convention(pairs: dict[tuple[str, str], dict[str, str]], source: str) -> tuple[str, str]:
+    seen = set()
+    for (output, input_), parts in pairs.items():
+        kind = next((c for c in CONVENTIONS if set(c) == set(parts)), None)
+        if kind is None:
+            raise DataError(f"{source}: pair {output}/{input_} has the parts {sorted(parts.values())}; each pair "
+                            "needs 're' and 'im', or a magnitude ('dB' or 'mag') and a phase ('deg' or 'rad')")
+        seen.add(kind)
+    if len(seen) > 1:
+        raise DataError(f"{source}: the pairs mix conventions ({'; '.join(CONVENTIONS[c] for c in sorted(seen))}); "
+                        "write every pair the same way")
+    return seen.pop()
+
+
+def read_frequency_data(path: str | Path, *, Ts: float | None = None, sep: str = ",") -> FrequencyData:
+    """Read a table of frequency responses (CSV) into :class:`FrequencyData`.
+
+    Parameters
+    ----------
+    path : str or Path
+        The table (see the module's description, and docs/frequency.md for an example).
+    Ts : float, optional
+        Sampling period when the responses are those of a discrete-time system; None:
+        continuous time.
+    sep : str, default ","
+        The column separator.
+
+    Returns
+    -------
+    FrequencyData
+
+    Raises
+    ------
+    DataError
+        No or two frequency columns, a column that fits no convention, a pair with a
+        part missing, mixed conventions, a pair missing from the output × input grid, a
+        cell that is not a number, or any check of :class:`FrequencyData` (each names the
+        file and the column, line or pair).
+
+    Warns
+    -----
+    FrequencyConventionWarning
+        Which frequency column and convention were read, and the channels found.
+
+    Examples
+    --------
+    >>> import tempfile, warnings, pathlib
+    >>> import numpy as np
+    >>> folder = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (folder / "frf.csv").write_text("frequency_hz,y1/u1 dB,y1/u1 deg\\n1,0,0\\n2,-6.0206,-90\\n")
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     data = read_frequency_data(folder / "frf.csv")
+    >>> bool(np.allclose(data.G[:, 0, 0], [1.0, -0.5j], atol=1e-5))      # -6.0206 dB is a half
+    True
+    >>> "dB" in str(caught[0].message)
+    True
+    """
+    import pandas as pd  # only when a table is read
+
+    source = str(path)
+    if not Path(path).is_file():
+        raise DataError(f"{source}: no such file")
+    try:
+        frame = pd.read_csv(path, sep=sep)
+    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise DataError(f"{source}: not a readable table: {exc}") from None
+    columns = [str(c) for c in frame.columns]
+    frame.columns = columns
+    frequency, pairs = _pairs(columns, source)
+    convention = _convention(pairs, source)
+    outputs = list(dict.fromkeys(o for o, _ in pairs))
+    inputs = list(dict.fromkeys(i for _, i in pairs))
+    missing = [f"{o}/{i}" for o in outputs for i in inputs if (o, i) not in pairs]
+    if missing:
+        raise DataError(f"{source}: every output/input pair needs its columns; missing {', '.join(missing)}")
+    G = np.empty((len(frame), len(outputs), len(inputs)), dtype=complex)
+    for (output, input_), parts in pairs.items():
+        first, second = (_numbers(frame, parts[part], source) for part in convention)
+        G[:, outputs.index(output), inputs.index(input_)] = _complex(first, second, convention)
+    unit = FREQUENCY_COLUMNS[frequency.strip().lower()]
+    try:
+        data = FrequencyData(_numbers(frame, frequency, source), G, unit=unit, Ts=Ts,
+                             output_names=outputs, input_names=inputs)
+    except DataError as exc:
+        raise DataError(f"{source}: {exc}") from None
+    warnings.warn(FrequencyConventionWarning(
+        f"{source}: frequencies in {unit} from column {frequency!r}; responses as {CONVENTIONS[convention]} "
+        f"for {len(outputs)} output(s) ({', '.join(outputs)}) and {len(inputs)} input(s) ({', '.join(inputs)}); "
+        f"{'continuous time' if Ts is None else f'discrete time, Ts = {Ts:g}'}"), stacklevel=2)
+    return data

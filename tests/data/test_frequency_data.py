@@ -1,0 +1,199 @@
+"""FrequencyData, its CSV reader and the frequency response of periodic records (docs/frequency.md)."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+import moli
+from moli import DataError, FrequencyConventionWarning, FrequencyData
+
+
+def first_order(omega: np.ndarray) -> np.ndarray:
+    return 1.0 / (1.0 + 1j * omega)
+
+
+# --- the object -----------------------------------------------------------------------------
+
+def test_hz_are_stored_as_rad_per_time_unit_and_the_points_follow_the_time_base():
+    data = FrequencyData([0.5, 1.0], [1.0, 2.0j], unit="Hz")
+    assert np.allclose(data.omega, [np.pi, 2 * np.pi]) and np.allclose(data.hz, [0.5, 1.0])
+    assert data.G.shape == (2, 1, 1) and np.allclose(data.points, 1j * data.omega)
+    sampled = FrequencyData([0.5, 1.0], [1.0, 2.0j], unit="rad/s", Ts=0.1)
+    assert np.allclose(sampled.points, np.exp(0.1j * np.array([0.5, 1.0])))
+
+
+def test_a_1d_variance_is_every_pair_of_its_line_and_the_arrays_are_read_only_copies():
+    G = np.ones((3, 2, 2), complex)
+    data = FrequencyData([1, 2, 3], G, unit="rad/s", variance=[1.0, 2.0, 3.0], output_names=["a", "b"])
+    assert data.variance.shape == (3, 2, 2) and np.all(data.variance[1] == 2.0)
+    assert data.output_names == ("a", "b") and data.input_names == ("u1", "u2")
+    G[0, 0, 0] = 5.0
+    assert data.G[0, 0, 0] == 1.0
+    with pytest.raises(ValueError):
+        data.G[0, 0, 0] = 3.0
+
+
+def test_lines_picks_lines_with_their_variance():
+    data = FrequencyData([1, 2, 3, 4], np.arange(4.0), unit="rad/s", variance=[1, 2, 3, 4])
+    picked = data.lines([1, 3])
+    assert np.allclose(picked.omega, [2, 4]) and np.allclose(picked.variance[:, 0, 0], [2, 4])
+
+
+@pytest.mark.parametrize("frequencies, G, keywords, message", [
+    ([1.0, 3.0, 2.0], [1, 1, 1], {}, r"increase strictly: line 2 \(2 rad/s\) does not exceed line 1"),
+    ([1.0, 2.0, 2.0], [1, 1, 1], {}, "increase strictly: line 2"),
+    ([-1.0, 2.0, 3.0], [1, 1, 1], {}, r"zero or positive: line 0 is -1"),
+    ([1.0, np.nan, 3.0], [1, 1, 1], {}, "frequencies must be finite: line 1"),
+    ([1.0, 2.0, 3.0], [1, np.nan, 1], {}, r"NaN or inf at line 1 \(2 rad/s\)"),
+    ([1.0, 2.0, 3.0], [1, 1], {}, r"shape \(F, p, m\) with F = 3"),
+    ([1.0, 2.0, 3.0], np.ones((3, 2, 2)), {"output_names": ["y1"], "input_names": ["u1", "u2"]},
+     "G has 2 outputs and 2 inputs, but the names give 1 outputs and 2 inputs"),
+    ([1.0, 2.0, 3.0], np.ones((3, 2, 2)), {"output_names": ["y1", "y2", "y3"]}, "output_names has 3 names for 2"),
+    ([1.0, 2.0, 40.0], [1, 1, 1], {"Ts": 0.1}, r"line 2 \(40 rad/s\) lies above the Nyquist frequency"),
+    ([1.0, 2.0, 3.0], [1, 1, 1], {"variance": [1.0, 0.0, 1.0]}, r"variance must be positive: line 1"),
+    ([1.0, 2.0, 3.0], [1, 1, 1], {"variance": [1.0, 1.0]}, "variance must have shape"),
+    ([1.0, 2.0, 3.0], [1, 1, 1], {"unit": "kHz"}, "unit must be one of"),
+])
+def test_bad_input_is_one_clear_error_naming_the_argument_and_line(frequencies, G, keywords, message):
+    keywords = {"unit": "rad/s", **keywords}
+    with pytest.raises(DataError, match=message):
+        FrequencyData(frequencies, G, **keywords)
+
+
+def test_the_nyquist_frequency_itself_is_a_line_of_sampled_data():
+    data = FrequencyData([1.0, np.pi / 0.1], [1, 1], unit="rad/s", Ts=0.1)
+    assert data.F == 2
+
+
+# --- the reader ------------------------------------------------------------------------------
+
+def write_table(path, header, rows):
+    path.write_text(",".join(header) + "\n" + "\n".join(",".join(f"{v!r}" for v in row) for row in rows) + "\n")
+    return path
+
+
+def two_by_one(omega):
+    """The response the tables below hold: y1 <- 1 / (1 + s), force <- 2 / (1 + s)."""
+    return np.stack([first_order(omega), 2 * first_order(omega)], axis=1)[:, :, None]
+
+
+@pytest.mark.parametrize("unit_column, parts, to_columns", [
+    ("frequency_rad_s", ("re", "im"), lambda g: (g.real, g.imag)),
+    ("frequency_hz", ("dB", "deg"), lambda g: (20 * np.log10(np.abs(g)), np.degrees(np.angle(g)))),
+    ("frequency_rad_s", ("mag", "rad"), lambda g: (np.abs(g), np.angle(g))),
+    ("Frequency_Hz", ("MAG", "Deg"), lambda g: (np.abs(g), np.degrees(np.angle(g)))),
+])
+def test_each_convention_reads_the_same_response_and_says_which_it_read(tmp_path, unit_column, parts, to_columns):
+    values = np.array([0.5, 1.0, 4.0])
+    omega = values * (2 * np.pi if unit_column.lower() == "frequency_hz" else 1.0)
+    truth = two_by_one(omega)
+    header, columns = [unit_column], [values]
+    for index, name in enumerate(["y1", "force"]):
+        first, second = to_columns(truth[:, index, 0])
+        header += [f"{name}/u1 {parts[0]}", f"{name}/u1 {parts[1]}"]
+        columns += [first, second]
+    path = write_table(tmp_path / "frf.csv", header, np.column_stack(columns).tolist())
+    with pytest.warns(FrequencyConventionWarning) as caught:
+        data = moli.read_frequency_data(path)
+    assert np.allclose(data.G, truth, rtol=1e-12) and np.allclose(data.omega, omega)
+    assert data.output_names == ("y1", "force") and data.input_names == ("u1",)
+    said = str(caught[0].message)
+    assert unit_column in said and ("dB" in said) == (parts[0] == "dB") and "continuous time" in said
+
+
+def test_channel_names_and_the_pair_grid_come_from_the_headers(tmp_path):
+    header = ["frequency_rad_s", "a/u1 re", "a/u1 im", "a/v re", "a/v im", "b/u1 re", "b/u1 im", "b/v re", "b/v im"]
+    rows = [[1.0, 1, 0, 2, 0, 3, 0, 4, 0], [2.0, 5, 1, 6, 1, 7, 1, 8, 1]]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FrequencyConventionWarning)
+        data = moli.read_frequency_data(write_table(tmp_path / "frf.csv", header, rows), Ts=0.1)
+    assert data.output_names == ("a", "b") and data.input_names == ("u1", "v") and data.Ts == 0.1
+    assert np.allclose(data.G[1], [[5 + 1j, 6 + 1j], [7 + 1j, 8 + 1j]])
+
+
+@pytest.mark.parametrize("header, rows, message", [
+    (["f", "y1/u1 re", "y1/u1 im"], [[1, 1, 0]], "exactly one frequency column.*found none"),
+    (["frequency_hz", "frequency_rad_s", "y1/u1 re", "y1/u1 im"], [[1, 2, 1, 0]], "found 'frequency_hz' and"),
+    (["frequency_hz", "y1/u1 re", "y1/u1 im", "note"], [[1, 1, 0, 3]], "column 'note' is neither"),
+    (["frequency_hz", "y1/u1 re", "y1/u1 deg"], [[1, 1, 0]], "pair y1/u1 has the parts"),
+    (["frequency_hz", "y1/u1 re", "y1/u1 im", "y1/u2 dB", "y1/u2 deg"], [[1, 1, 0, 0, 0]], "mix conventions"),
+    (["frequency_hz", "y1/u1 re", "y1/u1 im", "y2/u2 re", "y2/u2 im"], [[1, 1, 0, 1, 0]],
+     "missing y1/u2, y2/u1"),
+    (["frequency_hz", "y1/u1 re", "y1/u1 im"], [[1, 1, 0], [2, "'x'", 0]], "row 3 .* not a number"),
+    (["frequency_hz", "y1/u1 re", "y1/u1 im"], [[2, 1, 0], [1, 1, 0]], "frf.csv: frequencies must increase"),
+])
+def test_a_table_outside_the_convention_is_one_error_naming_the_file_and_column(tmp_path, header, rows, message):
+    path = tmp_path / "frf.csv"
+    path.write_text(",".join(header) + "\n" + "\n".join(",".join(str(v).strip("'") for v in r) for r in rows) + "\n")
+    with pytest.raises(DataError, match=message):
+        moli.read_frequency_data(path)
+
+
+# --- periodic records ------------------------------------------------------------------------
+
+def periodic_record(model, inputs_per_period, periods, noise, seed):
+    """``periods`` periods of the steady-state response to a repeated input, plus white output noise."""
+    u = np.tile(inputs_per_period, (periods + 3, 1))
+    y = model.simulate(u)[3 * len(inputs_per_period):]          # three periods to reach the steady state
+    u = u[3 * len(inputs_per_period):]
+    y = y + noise * np.random.default_rng(seed).standard_normal(y.shape)
+    return moli.IOData(y, u, Ts=model.Ts)
+
+
+def multisine(length, lines, seed):
+    phases = np.random.default_rng(seed).uniform(0, 2 * np.pi, len(lines))
+    t = np.arange(length)
+    return np.sum([np.cos(2 * np.pi * k * t / length + phi) for k, phi in zip(lines, phases)], axis=0)
+
+
+PLANT = moli.StateSpaceModel([[1.5, -0.7], [1.0, 0.0]], [[1.0], [0.0]], [[0.2, 0.1]], Ts=0.5)
+
+
+def test_noise_free_periods_give_the_true_response_at_the_excited_lines_only():
+    lines = np.arange(1, 60, 3)
+    record = periodic_record(PLANT, multisine(256, lines, 0)[:, None], 4, 0.0, 1)
+    frf = moli.frequency_response(record, 4)
+    assert np.allclose(frf.omega, 2 * np.pi * lines / (256 * 0.5))
+    truth = PLANT.frequency_response(frf.omega)
+    assert np.allclose(frf.G, truth, rtol=1e-9, atol=0)
+    assert frf.Ts == 0.5 and frf.output_names == record.output_names
+
+
+def test_the_variance_from_the_periods_spread_matches_the_noise_it_came_from():
+    # white output noise of variance s2 gives each period's DFT bin variance N_p s2, their mean
+    # over P periods N_p s2 / P, and G = Y / U the variance N_p s2 / (P |U|^2). Each line's
+    # estimate has 2 (P - 1) = 14 degrees of freedom (relative spread 0.38); the mean ratio over
+    # 80 lines spreads by 0.38 / sqrt(80) = 0.042, so 0.85-1.15 is 3.5 standard errors.
+    length, periods, noise = 512, 9, 0.05
+    lines = np.arange(2, 162, 2)
+    u = multisine(length, lines, 3)[:, None]
+    frf = moli.frequency_response(periodic_record(PLANT, u, periods, noise, 4), periods, transient=1)
+    U = np.fft.rfft(u[:, 0])[lines]
+    truth = length * noise**2 / ((periods - 1) * np.abs(U) ** 2)
+    ratio = frf.variance[:, 0, 0] / truth
+    assert 0.85 < ratio.mean() < 1.15
+
+
+def test_two_inputs_take_two_records_and_give_the_whole_matrix():
+    plant = moli.StateSpaceModel([[0.6, 0.2], [0.0, 0.3]], [[1.0, 0.0], [0.5, 1.0]], [[1.0, 0.0], [0.3, 1.0]], Ts=1.0)
+    lines = np.arange(1, 30, 2)
+    records = [periodic_record(plant, np.column_stack([multisine(128, lines, s), multisine(128, lines, s + 9)]),
+                               3, 0.0, s) for s in (0, 1)]
+    frf = moli.frequency_response(records, 3)
+    assert np.allclose(frf.G, plant.frequency_response(frf.omega), rtol=1e-9)
+
+
+@pytest.mark.parametrize("make, message", [
+    (lambda r: ((r, 5), {}), "not a whole number of 5 periods"),
+    (lambda r: ((r, 4), {"transient": 3}), "leave 1; the variance needs at least two"),
+    (lambda r: (([r, r], 4), {}), "1 inputs need 1 records"),
+    (lambda r: ((moli.IOData(np.zeros(512), np.zeros(512)), 4), {}), "no line of the records is excited"),
+])
+def test_bad_periodic_records_are_one_clear_error(make, message):
+    record = periodic_record(PLANT, multisine(128, [3, 5], 0)[:, None], 4, 0.0, 0)
+    args, keywords = make(record)
+    with pytest.raises(DataError, match=message):
+        moli.frequency_response(*args, **keywords)
