@@ -26,8 +26,8 @@ LAYERS = ("errors", "numerics", "data", "models", "validation", "method", "strea
 # package and the stages before it. options/ comes after the stages whose choices it lists
 # and before those that read it; pipeline/ holds identify()'s steps, which call them all;
 # the modules at method/'s root (identification, result) sit above every stage.
-METHOD_STAGES = ("structure", "least_squares", "kernel", "tuning", "options", "search", "refinement", "closed_loop",
-                 "uncertainty", "selection", "continuous", "frequency", "pipeline")
+METHOD_STAGES = ("structure", "least_squares", "tuning", "options", "search", "refinement", "closed_loop",
+                 "uncertainty", "selection", "kernel", "continuous", "frequency", "pipeline")
 # method/'s root holds only the entry point, its result and the package's names.
 METHOD_ROOT = {"__init__", "identification", "result"}
 # About a screen or two per module.

@@ -41,7 +41,8 @@ _HOMES = {
     "filter_polynomial": "method", "IdentificationResult": "method", "identify": "method",
     "IdentifyOptions": "method", "PathStep": "method", "estimate_noise_model": "method",
     "estimate_covariance": "method", "ContinuousResult": "method", "FrequencyResult": "method",
-    "impulse_response": "method", "ImpulseResponse": "method",
+    "impulse_response": "method", "ImpulseResponse": "method", "identify_kernel": "method",
+    "KernelResult": "method",
     "identify_many": "fleets", "FleetResult": "fleets", "estimate_chunks": "fleets",
     "RecursiveMoli": "streaming", "ChunkedEstimator": "streaming", "FilterBank": "streaming",
     "example_data": "systems", "example_plant": "systems", "experiment": "systems",
@@ -66,7 +67,8 @@ if TYPE_CHECKING:  # what the lazy names are, for type checkers and IDEs
     from .fleets import FleetResult, estimate_chunks, identify_many
     from .method import (
         ContinuousResult, FrequencyResult, IdentificationResult, IdentifyOptions, ImpulseResponse, PathStep, divisor,
-        divisors, estimate, estimate_covariance, estimate_noise_model, filter_polynomial, identify, impulse_response,
+        divisors, estimate, estimate_covariance, estimate_noise_model, filter_polynomial, identify, identify_kernel,
+        impulse_response, KernelResult,
     )
     from .models import ContinuousModel, Mode, StateSpaceModel, load_model, modes
     from .streaming import ChunkedEstimator, FilterBank, RecursiveMoli

@@ -148,3 +148,44 @@ def test_bad_input_is_refused_before_any_work():
     twins = moli.IOData(data.y, np.column_stack([data.u, 2 * data.u]))
     with pytest.raises(moli.DataError, match="ill-conditioned"):
         moli.method.impulse_response(twins, kernel="none", length=5)
+
+
+def test_the_realization_of_a_noise_free_response_is_the_plant():
+    # poles 0.5 +- 0.3j: the response has decayed to 1e-14 by lag 60, so the least squares of 60
+    # lags holds it whole and the Hankel matrix has rank 2: the realization is exact to round-off
+    # (the record as it is: its means removed, a constant the FIR regression has no column for
+    # would bias it by 1e-3)
+    plant = moli.StateSpaceModel([[0.5, 0.3], [-0.3, 0.5]], [[1.0], [0.5]], [[1.0, 0.0]])
+    u = np.random.default_rng(11).standard_normal((600, 1))
+    result = moli.identify_kernel(moli.IOData(plant.simulate(u), u), kernel="none", length=60, nmax=5,
+                                  center=False)
+    assert result.selected.order == 2
+    np.testing.assert_allclose(np.sort_complex(result.model.poles()), np.sort_complex(plant.poles()), atol=1e-8)
+
+
+def test_the_kernel_models_gain_bands_hold_the_true_gain():
+    # a first-order plant, 150 samples at 10 dB: the 95 % bands of |G| at four frequencies held the
+    # true gain on 0.90-0.93 of 40 records (the order selected was 1 on 34 of them); on 30 records,
+    # 0.80 is 2.5 binomial standard deviations below 0.90
+    plant = moli.StateSpaceModel([[0.8]], [[1.0]], [[0.5]])
+    omega = np.array([0.0, 0.3, 1.0, 2.5])
+    truth = np.abs(plant.frequency_response(omega))[:, 0, 0]
+    held = []
+    for seed in range(30):
+        rng = np.random.default_rng(seed)
+        u = rng.standard_normal((150, 1))
+        clean = plant.simulate(u)
+        data = moli.IOData(clean + np.std(clean) / np.sqrt(10) * rng.standard_normal(clean.shape), u)
+        lower, upper = moli.identify_kernel(data, nmax=4).model.magnitude_bands(omega)
+        held.append((lower[:, 0, 0] <= truth) & (truth <= upper[:, 0, 0]))
+    assert np.mean(held) >= 0.80
+
+
+def test_identify_kernel_refuses_bad_input():
+    data = _record(200, 12)
+    with pytest.raises(moli.DataError, match="IOData"):
+        moli.identify_kernel(np.zeros((10, 2)))
+    with pytest.raises(moli.DataError, match="same channels"):
+        moli.identify_kernel(data, _record(100, 13, m=2))
+    with pytest.raises(moli.OptionError, match="x0"):
+        moli.identify_kernel(data, x0="random")

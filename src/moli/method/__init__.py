@@ -16,6 +16,7 @@ docs/frequency.md) and :mod:`.pipeline` (the steps of :func:`identify`, in
 from .continuous import ContinuousResult, ContinuousStep
 from .frequency import FrequencyResult, FrequencyStep
 from .kernel.impulse import ImpulseResponse, impulse_response
+from .kernel.kernel_model import KernelResult, identify_kernel
 from .least_squares.estimation import estimate
 from .least_squares.realization import realize
 from .structure.filters import divisor, divisors, filter_polynomial
@@ -34,5 +35,5 @@ __all__ = [
     "identify", "IdentifyOptions", "estimate_noise_model", "RefineResult", "refine", "refine_each", "PathStep", "exhaustive",
     "TuningResult", "default_omega", "tune_filter", "estimate_covariance",
     "ContinuousResult", "ContinuousStep", "FrequencyResult", "FrequencyStep", "prediction_error_refine",
-    "ReferenceProjection", "fit_projection", "ImpulseResponse", "impulse_response",
+    "ReferenceProjection", "fit_projection", "ImpulseResponse", "impulse_response", "KernelResult", "identify_kernel",
 ]
