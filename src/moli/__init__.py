@@ -36,6 +36,7 @@ _HOMES = {
     "nrmse_fit": "validation", "vaf": "validation", "predict": "validation",
     "residual_analysis": "validation", "ResidualAnalysis": "validation",
     "EmpiricalResponse": "validation", "empirical_frequency_response": "validation",
+    "spectral_frequency_data": "validation",
     "estimate_delays": "validation", "FeedbackCheck": "validation", "feedback_check": "validation", "simulation_bands": "validation",
     "estimate": "method", "divisor": "method", "divisors": "method",
     "filter_polynomial": "method", "IdentificationResult": "method", "identify": "method",
@@ -76,7 +77,7 @@ if TYPE_CHECKING:  # what the lazy names are, for type checkers and IDEs
     from .validation import (
         Comparison, EmpiricalResponse, FeedbackCheck, ResidualAnalysis, compare, cost_j,
         empirical_frequency_response, estimate_delays, feedback_check, nrmse_fit, predict,
-        residual_analysis, simulation_bands, vaf,
+        residual_analysis, simulation_bands, spectral_frequency_data, vaf,
     )
 
 

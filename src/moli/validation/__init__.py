@@ -6,7 +6,7 @@ from .bands import simulation_bands
 from .comparison import Comparison, compare, estimate_initial_state
 from .delays import estimate_delays
 from .feedback import FeedbackCheck, feedback_check
-from .frequency import EmpiricalResponse, empirical_frequency_response
+from .frequency import EmpiricalResponse, empirical_frequency_response, spectral_frequency_data
 from .metrics import cost_j, nrmse_fit, vaf
 from .prediction import predict
 from .residuals import ResidualAnalysis, residual_analysis
@@ -14,5 +14,5 @@ from .residuals import ResidualAnalysis, residual_analysis
 __all__ = [
     "Comparison", "compare", "estimate_initial_state", "cost_j", "nrmse_fit", "vaf", "predict",
     "ResidualAnalysis", "residual_analysis", "EmpiricalResponse", "empirical_frequency_response",
-    "estimate_delays", "FeedbackCheck", "feedback_check", "simulation_bands",
+    "estimate_delays", "FeedbackCheck", "feedback_check", "simulation_bands", "spectral_frequency_data",
 ]

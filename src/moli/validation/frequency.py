@@ -12,11 +12,12 @@ from typing import NamedTuple
 
 import numpy as np
 
+from ..data.frequency_data import FrequencyData
 from ..data.iodata import IOData, require_one_segment
 from ..errors import DataError
 from ..models.frequency import check_omega
 
-__all__ = ["EmpiricalResponse", "empirical_frequency_response"]
+__all__ = ["EmpiricalResponse", "empirical_frequency_response", "spectral_frequency_data"]
 
 # S_uu is treated as singular (response NaN) beyond this condition number: the
 # inputs then carry no independent power at that frequency.
@@ -88,6 +89,54 @@ def empirical_frequency_response(
     >>> bool(abs(H[0, 0, 0] - exact[0, 0, 0]) < 0.05 * abs(exact[0, 0, 0]))
     True
     """
+    omega_, response, _ = _welch(data, omega, nperseg)
+    return EmpiricalResponse(omega_, response)
+
+
+def spectral_frequency_data(data: IOData, nperseg: int | None = None) -> FrequencyData:
+    """The spectral estimate of :func:`empirical_frequency_response` as :class:`moli.FrequencyData`,
+    with each line's variance, for identification from an arbitrary (not periodic) record.
+
+    With the noise on the outputs and ``K`` Hann-windowed segments overlapping by half, the
+    estimate's error is ``S_vu S_uu^-1``; its variance per entry is
+    ``var G_ij = S_vv,ii [S_uu^-1]_jj / K_eff`` (Bendat and Piersol), with the noise spectrum
+    ``S_vv = (S_yy - G S_uu G^H) K_eff / (K_eff - m)`` and Welch's equivalent number of
+    segments ``K_eff = K / (1 + 2 rho^2 (K - 1) / K)``, ``rho`` the window's overlap correlation
+    (1/6 for Hann at half overlap). Lines where the inputs have no power are left out.
+
+    Parameters
+    ----------
+    data : IOData
+        One record without gaps (means need not be removed).
+    nperseg : int, optional
+        As for :func:`empirical_frequency_response`.
+
+    Returns
+    -------
+    FrequencyData
+        Discrete time (``data.Ts``), at the segment's DFT frequencies.
+
+    Examples
+    --------
+    >>> import numpy as np, moli
+    >>> model = moli.StateSpaceModel([[0.5]], [[1.0]], [[1.0]])
+    >>> u = np.random.default_rng(0).standard_normal(4000)
+    >>> y = model.simulate(u) + 0.1 * np.random.default_rng(1).standard_normal((4000, 1))
+    >>> frf = moli.spectral_frequency_data(moli.IOData(y, u))
+    >>> frf.variance.shape == frf.G.shape
+    True
+    """
+    omega, response, variance = _welch(data, None, nperseg)
+    kept = np.all(np.isfinite(response), axis=(1, 2)) & np.all(variance > 0, axis=(1, 2))
+    if not kept.any():
+        raise DataError("the inputs have no power at any frequency of the spectral estimate")
+    return FrequencyData(omega[kept], response[kept], unit="rad/s", Ts=data.Ts, variance=variance[kept],
+                         output_names=data.output_names, input_names=data.input_names)
+
+
+def _welch(data: IOData, omega: object | None,
+           nperseg: int | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Frequencies, the H1 estimate and its variance per entry (NaN where ``S_uu`` is singular)."""
     if not isinstance(data, IOData):
         raise DataError(f"data must be an IOData, got {type(data).__name__}")
     require_one_segment(data, "empirical_frequency_response (Welch spectra)")
@@ -130,4 +179,16 @@ def empirical_frequency_response(
     # H S_uu = S_yu, solved as S_uu^T H^T = S_yu^T: no inverse is formed
     solved = np.linalg.solve(S_uu[usable].transpose(0, 2, 1), S_yu[usable].transpose(0, 2, 1))
     response[usable] = solved.transpose(0, 2, 1)
-    return EmpiricalResponse(w, response)
+    # Welch's equivalent number of segments: neighbours share the window's overlap, correlation rho
+    rho = float(window[step:] @ window[:-step] / (window @ window)) if step > 0 else 0.0
+    effective = count / (1.0 + 2.0 * rho ** 2 * (count - 1) / count)
+    variance = np.full((w.size, p, m), np.nan)
+    if effective > m:
+        G = response[usable]
+        S_yy = np.einsum("kaf,kbf->fab", spectra[:, :p], spectra[:, :p].conj())[usable] / count
+        noise = np.real(np.einsum("fii->fi", S_yy - G @ S_uu[usable] @ G.conj().transpose(0, 2, 1)))
+        noise = np.maximum(noise, 0.0) * effective / (effective - m)
+        # diag(S_uu^-1) per line, by a solve with the identity (S_uu is m x m and well conditioned here)
+        inverse = np.real(np.einsum("fjj->fj", np.linalg.solve(S_uu[usable], np.eye(m)[None])))
+        variance[usable] = noise[:, :, None] * inverse[:, None, :] / effective
+    return w, response, variance
