@@ -189,3 +189,18 @@ def test_identify_kernel_refuses_bad_input():
         moli.identify_kernel(data, _record(100, 13, m=2))
     with pytest.raises(moli.OptionError, match="x0"):
         moli.identify_kernel(data, x0="random")
+
+
+def test_identify_hands_the_kernel_method_over_and_refuses_what_it_would_ignore():
+    data = moli.example_data(N=300, seed=1)
+    through_identify = moli.identify(data, method="kernel", nmax=6)
+    direct = moli.identify_kernel(data, nmax=6)
+    # the same split (the last 30 % held out) and the same computation: the same model to the bit
+    np.testing.assert_array_equal(through_identify.model.A, direct.model.A)
+    assert through_identify.validation_source == direct.validation_source
+    with pytest.raises(moli.OptionError, match="does not read seed, refine"):
+        moli.identify(data, method="kernel", refine="none", seed=3)
+    with pytest.raises(moli.OptionError, match="sampled models"):
+        moli.identify(data, method="kernel", time="continuous")
+    with pytest.raises(moli.OptionError, match="IdentifyOptions.method"):
+        moli.IdentifyOptions(method="ridge")

@@ -44,6 +44,7 @@ BAD = {
     "input_hold": ("linear", None),
     "reference": (3, []),
     "closed_loop": (True, "indirect"),
+    "method": ("ridge", None, 1),
 }
 
 

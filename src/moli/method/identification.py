@@ -12,12 +12,12 @@ import time
 from typing import Any, Callable
 
 from ..data import FrequencyData, IOData
-from .continuous.identification import ContinuousResult, identify_continuous
 from .frequency.identification import FrequencyResult, identify_frequency
 from .options import IdentifyOptions, options_section
 from .pipeline.finishing import checked_selection, record_of_making, refine_and_finish
 from .pipeline.interruption import Phases, post_path_phases
 from .pipeline.order_choice import choose_order
+from .pipeline.routes import HandedOver, handed_over
 from .pipeline.preparation import call_options, check_hooks, prepare, split_records
 from .result import IdentificationResult
 from .search.greedy_path import PathStep, StructureSearch, path_until_interrupted
@@ -33,7 +33,7 @@ def identify(
     progress: Callable[[PathStep], None] | None = None,
     phase: Callable[[str], None] | None = None,
     **overrides: Any,
-) -> IdentificationResult | ContinuousResult | FrequencyResult:
+) -> IdentificationResult | FrequencyResult | HandedOver:
     """Identify a multivariable state-space model with MOLI-ZOFT.
 
     Parameters
@@ -64,7 +64,8 @@ def identify(
     IdentificationResult
         Or, with ``time="continuous"``, a :class:`ContinuousResult` whose model is a
         :class:`ContinuousModel` (docs/continuous.md); from :class:`FrequencyData`, a
-        :class:`FrequencyResult` (docs/frequency.md).
+        :class:`FrequencyResult` (docs/frequency.md); with ``method="kernel"``, a
+        :class:`KernelResult` (docs/regularization.md).
 
     Raises
     ------
@@ -92,8 +93,9 @@ def identify(
     check_hooks(data, progress, phase)
     estimation, validation, source = split_records(data, validation, options)
     nmax = options.path_end(data.p)
-    if options.time == "continuous":
-        return identify_continuous(estimation, validation, source, options, progress, phase)
+    handed = handed_over(estimation, validation, source, options, progress, phase)
+    if handed is not None:       # continuous time, or the kernel method
+        return handed
     start = time.perf_counter()
     prepared = prepare(estimation, validation, options)
     options = prepared.options

@@ -2,6 +2,7 @@
 single option values."""
 
 from .documentation import options_section
-from .identify_options import PRESETS, IdentifyOptions
+from .choices import PRESETS
+from .identify_options import IdentifyOptions
 
 __all__ = ["IdentifyOptions", "PRESETS", "options_section"]

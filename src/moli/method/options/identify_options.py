@@ -14,6 +14,10 @@ from typing import Any, Mapping
 
 from ...errors import OptionError
 from ...validation.comparison import X0_CHOICES
+from .choices import (
+    CLOSED_LOOP_METHODS, EVAPORATOR_CHOICES, FAST_CHOICES, INPUT_HOLDS, METHODS, MIN_SEARCH_SAMPLES, ORDER_RULES, PRESETS,
+    REFINE_CHOICES, TIMES,
+)
 from .value_checks import (
     check_choice, check_delays, check_flag, check_names, check_integer, check_number, check_omega_pairs, check_ridges,
     option_error,
@@ -25,23 +29,6 @@ from ..tuning.barycenter import GRIDS, TUNING_METHODS
 
 __all__ = ["IdentifyOptions"]
 
-REFINE_CHOICES = ("none", "selected", "path", "guarded")
-# What the earlier presets share and the default no longer does (chosen on the
-# evaporator windows; docs/accuracy.md shows what they cost elsewhere).
-EVAPORATOR_CHOICES = {"order_tolerance": 1.0, "filter_grid": "paper", "refine": "none", "refine_ridge": 1.0}
-ORDER_RULES = ("tolerance", "paired", "refined")
-# The fast preset: at most five Levenberg-Marquardt steps per refinement, the cheapest
-# search within 0.3 points of the default on every seed of the generalization benchmark,
-# no orders below the selected one, and the selected model's early stop kept
-# (docs/accuracy.md, "The fast preset").
-FAST_CHOICES = {"refine_iterations": 5, "lower_orders": False, "polish_selected": False}
-PRESETS = ("default", "fast", "improved", "bounded", "paper")
-TIMES = ("discrete", "continuous")
-INPUT_HOLDS = ("zoh", "foh")
-CLOSED_LOOP_METHODS = ("open", "two-stage", "direct")
-# Shortest search window: a few hundred samples still rank the filters and lists of
-# small plants; below that a window says too little about the record.
-MIN_SEARCH_SAMPLES = 500
 
 
 @dataclass(frozen=True)
@@ -158,7 +145,7 @@ class IdentifyOptions:
         refinement and the noise model run on its first ``search_samples`` samples, and
         the selected list is re-estimated on the whole record (docs/method.md §15);
         None searches the whole record however long. At least
-        :data:`MIN_SEARCH_SAMPLES`.
+        :data:`moli.method.options.choices.MIN_SEARCH_SAMPLES`.
     time : {"discrete", "continuous"}, default "discrete"
         A sampled model, or ``dx/dt = A x + B u`` identified directly from the record's
         time stamps, regular or not (docs/continuous.md): ``omega`` is then in rad per
@@ -182,6 +169,10 @@ class IdentifyOptions:
         input that the outputs reproduce exactly (a controller's output) and
         ``feedthrough`` is not True; else "open", which warns when the record looks
         closed-loop. "open" keeps the open-loop fit whatever the check finds.
+    method : {"moli", "kernel"}, default "moli"
+        What estimates the model: the MOLI path, or the realization of a regularized (TC)
+        impulse response with its order chosen on validation (:func:`moli.identify_kernel`,
+        docs/regularization.md), which reads ``nmax``, ``x0``, ``center`` and ``feedthrough``.
 
     Examples
     --------
@@ -225,6 +216,7 @@ class IdentifyOptions:
     input_hold: str = "zoh"
     reference: tuple[str, ...] | None = None
     closed_loop: str | None = None
+    method: str = "moli"
 
     def __post_init__(self) -> None:
         radius = self.max_radius
@@ -271,6 +263,7 @@ class IdentifyOptions:
             "reference": check_names("reference", self.reference),
             "closed_loop": None if self.closed_loop is None else check_choice(
                 "closed_loop", self.closed_loop, CLOSED_LOOP_METHODS),
+            "method": check_choice("method", self.method, METHODS),
         }
         if checked["closed_loop"] == "two-stage" and checked["reference"] is None:
             raise option_error("closed_loop", "'open' or 'direct' without a reference (the two-stage method "

@@ -1,0 +1,45 @@
+"""The identifications :func:`moli.identify` hands over whole once its records are split: continuous
+time (docs/continuous.md) and the kernel method (docs/regularization.md)."""
+
+from __future__ import annotations
+
+from dataclasses import fields
+from typing import Callable
+
+from ...data.iodata import IOData
+from ...errors import OptionError
+from ..continuous.identification import ContinuousResult, identify_continuous
+from ..kernel.kernel_model import KernelResult, identify_kernel
+from ..options.identify_options import IdentifyOptions
+
+__all__ = ["handed_over", "HandedOver", "KERNEL_READS"]
+
+# What the identifications handed over return.
+HandedOver = ContinuousResult | KernelResult
+
+# The options the kernel method reads; any other changed from its default is refused (it would
+# be silently ignored).
+KERNEL_READS = frozenset({"nmax", "x0", "center", "feedthrough", "method"})
+
+
+def handed_over(estimation: IOData, validation: IOData, source: str, options: IdentifyOptions,
+                progress: Callable[..., None] | None, phase: Callable[[str], None] | None,
+                ) -> HandedOver | None:
+    """The result of the identification ``options`` ask for where it is not the sampled MOLI
+    path's; None where it is."""
+    if options.time == "continuous" and options.method == "kernel":
+        raise OptionError("method='kernel' identifies sampled models: leave time at 'discrete'")
+    if options.time == "continuous":
+        return identify_continuous(estimation, validation, source, options, progress, phase)
+    if options.method != "kernel":
+        return None
+    default = IdentifyOptions()
+    changed = [f.name for f in fields(IdentifyOptions)
+               if f.name not in KERNEL_READS and getattr(options, f.name) != getattr(default, f.name)]
+    if changed:
+        raise OptionError(f"method='kernel' does not read {', '.join(changed)}: leave "
+                          f"{'it' if len(changed) == 1 else 'them'} at the default, or use method='moli'")
+    result = identify_kernel(estimation, validation, nmax=options.nmax, x0=options.x0, center=options.center,
+                             feedthrough=options.feedthrough is True)
+    result.validation_source = source
+    return result
