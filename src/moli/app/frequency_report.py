@@ -104,14 +104,14 @@ def _magnitude_figure(model: Any, data: FrequencyData, lines: np.ndarray, fitted
             if bands is not None:
                 ax.fill_between(hz, np.maximum(_decibels(bands[0][:, i, j]), floor), _decibels(bands[1][:, i, j]),
                                 color="C0", alpha=0.25, lw=0, label="model 95 % band")
-            ax.plot(hz, _decibels(np.abs(data.G[lines, i, j])), color="0.45", lw=0.9, label="data")
+            ax.plot(hz, _decibels(np.abs(data.G[lines, i, j])), color="0.7", lw=2.4, label="data")
             if data.variance is not None:
                 ax.plot(hz, _decibels(np.sqrt(data.variance[lines, i, j])), color="0.45", lw=0.8, ls=":",
                         label="data std")
             ax.plot(hz, model_db[:, i, j], color="C0", lw=1.1, label="model")
             ax.set_xscale("log")
             ax.grid(alpha=0.3)
-    axes[0, 0].legend(fontsize=7)
+    axes[0, 0].legend(fontsize=7, loc="best")
     return fig
 
 
@@ -125,11 +125,11 @@ def _phase_figure(model: Any, data: FrequencyData, lines: np.ndarray, fitted: np
     for i in range(model.p):
         for j in range(model.m):
             ax = axes[i, j]
-            ax.plot(hz, np.degrees(data_phase[:, i, j]), color="0.45", lw=0.9, label="data")
+            ax.plot(hz, np.degrees(data_phase[:, i, j]), color="0.7", lw=2.4, label="data")
             ax.plot(hz, np.degrees(model_phase[:, i, j]), color="C0", lw=1.1, label="model")
             ax.set_xscale("log")
             ax.grid(alpha=0.3)
-    axes[0, 0].legend(fontsize=7)
+    axes[0, 0].legend(fontsize=7, loc="best")
     return fig
 
 
@@ -145,11 +145,11 @@ def _error_figure(model: Any, data: FrequencyData, lines: np.ndarray, fitted: np
             ax = axes[i, j]
             ax.plot(hz, error[:, i, j], color="C3", lw=0.8, label="|G_model - G_data| / |G_data|")
             if noise is not None:
-                ax.plot(hz, noise[:, i, j], color="0.45", lw=0.8, ls=":", label="data std / |G_data|")
+                ax.plot(hz, noise[:, i, j], color="0.15", lw=1.1, ls=":", label="data std / |G_data|", zorder=3)
             ax.set_xscale("log")
             ax.set_yscale("log")
             ax.grid(alpha=0.3)
-    axes[0, 0].legend(fontsize=7)
+    axes[0, 0].legend(fontsize=7, loc="best")
     return fig
 
 
