@@ -41,7 +41,7 @@ BAND_FLOOR_DB = 40.0
 
 
 def _with_std(value: float, std: float | None, digits: int) -> str:
-    return f"{value:.{digits}f}" + ("" if std is None else f" ± {std:.{digits}f}")
+    return f"{value:.{digits}f}" + ("" if std is None else f" ± {std:.2g}")
 
 
 def modal_lines(model: Any) -> list[str]:
