@@ -140,7 +140,7 @@ def test_ctrl_c_during_the_fit_writes_nothing_and_exits_130(tmp_path, monkeypatc
 
     monkeypatch.chdir(tmp_path)
     write_frf(tmp_path / "frf.csv")
-    monkeypatch.setattr(frequency_fit, "identify_frequency", interrupt)
+    monkeypatch.setattr(frequency_fit, "identify", interrupt)
     done = run("fit", "frf.csv", "--frequency")
     assert done.exit_code == 130 and done.stderr.splitlines()[-1] == "moli: interrupted"
     assert not (tmp_path / "moli-fit-frf" / "model.json").exists()

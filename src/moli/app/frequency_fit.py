@@ -26,8 +26,9 @@ from ..data.files import file_sha256
 from ..data.frequency_data import FrequencyData
 from ..data.frequency_files import read_frequency_data
 from ..errors import DataError, FrequencyConventionWarning, OptionError
-from ..method.frequency import FrequencyResult, FrequencyStep, identify_frequency
+from ..method.frequency import FrequencyResult, FrequencyStep
 from ..method.frequency.identification import HOLD_OUT_EVERY
+from ..method.identification import identify
 from ..method.options import IdentifyOptions
 from ..models.continuous import ContinuousModel
 from .console import InterruptHold
@@ -115,7 +116,7 @@ def _fitted(data: FrequencyData, options: IdentifyOptions, noted: RunWarnings, h
 
         warnings.simplefilter("always")
         try:
-            result = identify_frequency(data, None, options, progress, phase)
+            result = identify(data, None, options, progress=progress, phase=phase)
             hold.start()
         finally:
             bar.close()
