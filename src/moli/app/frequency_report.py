@@ -61,7 +61,8 @@ def _modal_table(model: Any) -> str:
     rows = []
     for k, mode in enumerate(modes(model), 1):
         hz_std = None if mode.natural_frequency_std is None else mode.natural_frequency_std / (2 * np.pi)
-        shape = "".join(f"<td>{abs(v):.3f} ∠ {np.degrees(np.angle(v)):.0f}°</td>" for v in mode.shape)
+        # whole degrees as an int: round-off never prints "-0"
+        shape = "".join(f"<td>{abs(v):.3f} ∠ {round(float(np.degrees(np.angle(v))))}°</td>" for v in mode.shape)
         rows.append(f"<tr><td>{k}{'' if mode.oscillatory else ' (real)'}</td>"
                     f"<td>{_with_std(mode.natural_frequency, mode.natural_frequency_std, 4)}</td>"
                     f"<td>{_with_std(mode.frequency_hz, hz_std, 4)}</td>"
