@@ -36,11 +36,12 @@ from .figure_files import save_figure
 from .figures import measured_vs_simulated
 from .fleet_cli import fleet_commands
 from .fleet_report import SCORES
-from .outputs import MODEL_WRITTEN, REPORT_FILE, refuse_overwrite, run_folder, save_held
+from .outputs import MODEL_WRITTEN, REPORT_FILE, fit_outputs, refuse_overwrite, run_folder, save_held
 from .progress import READING_SHOWN_AFTER, Phases
 from .reading import RunWarnings, names, read_records, reading_options
 from .console import PARTIAL, USAGE_ERROR, InterruptHold, interrupted
 from .continuous_fit import fit_continuous
+from .frequency_fit import fit_frequency
 from .describe import describe
 from .search_run import held_out_search
 from .report import write_report
@@ -187,22 +188,6 @@ def cli() -> None:
 _FORCE = click.option("--force", is_flag=True, help="Overwrite files already there (a model, a report, a figure).")
 
 
-def _outputs(model_path: Path | None, report_dir: Path | None, folder: Path, force: bool,
-             read: list[Path]) -> tuple[Path, Path | None]:
-    """The model file and report folder of a run, refused before any work if they exist.
-
-    Without --out, both go into the run's own folder; with --out, a report only where
-    --report says.
-    """
-    if model_path is None:
-        model_path, report_dir = folder / "model.json", report_dir or folder / "report"
-    check_output_file(model_path, "--out", read)
-    if report_dir is not None:
-        check_output_folder(report_dir, "--report", (REPORT_FILE,), read)
-    refuse_overwrite([model_path] + ([report_dir / REPORT_FILE] if report_dir is not None else []), force)
-    return model_path, report_dir
-
-
 @cli.command()
 @click.option("--out", "out_dir", default="moli-demo", show_default=True, type=click.Path(path_type=Path),
               help="Folder for report.html, the figures and model.json.")
@@ -270,14 +255,16 @@ def demo(out_dir: Path, nmax: int, all_lists: bool, force: bool) -> None:
               help="A record taken under feedback: identify it as open-loop, by the two-stage method "
                    "(needs --reference) or by the direct prediction-error method [default: two-stage "
                    "with --reference, else direct where an input is a controller's output, else open].")
+@click.option("--frequency", is_flag=True, help="DATA is a measured frequency response (a CSV of "
+              "'<output>/<input> <part>' columns, docs/frequency.md): fit a model to it.")
 @_FORCE
 @reading_options
 def fit(*, data_files: tuple[Path, ...], inputs: str | None, outputs: str | None, daisy: str | None,
         data_dir: Path | None, ts: float | None, options_file: Path | None, nmax: int | None,
         order: int | None, fraction: float, seed: int | None, preset: str | None, x0: str | None,
         outliers: str, model_path: Path | None, report_dir: Path | None, all_lists: bool,
-        continuous: bool, input_hold: str | None, reference: str | None, closed_loop: str | None, force: bool,
-        **reading: Any) -> None:
+        continuous: bool, input_hold: str | None, reference: str | None, closed_loop: str | None,
+        frequency: bool, force: bool, **reading: Any) -> None:
     """Identify a model from a data file, several runs of one plant, or a DaISy set.
 
     DATA is a text table (.csv .tsv .txt), an Excel workbook (.xlsx), Parquet, .npz or
@@ -287,6 +274,8 @@ def fit(*, data_files: tuple[Path, ...], inputs: str | None, outputs: str | None
     Several DATA files (the same columns) are merged as separate experiments; the
     validation part is the tail of the last one.
     """
+    if frequency:       # flags read by name there, the time-domain ones refused
+        click.get_current_context().exit(fit_frequency(click.get_current_context(), options_from_flags))
     if bool(data_files) == (daisy is not None):
         raise DataError("give either DATA files or --daisy NAME")
     for flag, named in (("--inputs", inputs), ("--outputs", outputs)):
@@ -299,7 +288,7 @@ def fit(*, data_files: tuple[Path, ...], inputs: str | None, outputs: str | None
                                  reference=names(reference), closed_loop=closed_loop)
     stems = [daisy] if daisy is not None else [path.stem for path in data_files]
     read = [*data_files, *([options_file] if options_file is not None else [])]
-    model_path, report_dir = _outputs(model_path, report_dir, run_folder("fit", stems), force, read)
+    model_path, report_dir = fit_outputs(model_path, report_dir, run_folder("fit", stems), force, read)
     noted = RunWarnings()
     with Phases() as phases:
         phases.shown_after(f"reading {daisy if daisy is not None else ', '.join(map(str, data_files))}",

@@ -14,10 +14,11 @@ from typing import Any, Iterable, Sequence
 
 import click
 
+from ..data.atomic_files import check_output_file, check_output_folder
 from ..errors import OptionError
 from .console import InterruptHold
 
-__all__ = ["REPORT_FILE", "MODEL_WRITTEN", "run_folder", "refuse_overwrite", "save_held"]
+__all__ = ["REPORT_FILE", "MODEL_WRITTEN", "run_folder", "refuse_overwrite", "fit_outputs", "save_held"]
 
 REPORT_FILE = "report.html"
 # click's ctx.meta key of the model file a command has written: a later Ctrl-C ends the
@@ -65,6 +66,22 @@ def refuse_overwrite(paths: Iterable[Path], force: bool) -> None:
     for path in paths:
         if path.exists():
             raise OptionError(f"{path} exists: give --force to overwrite it, or --out to write elsewhere")
+
+
+def fit_outputs(model_path: Path | None, report_dir: Path | None, folder: Path, force: bool,
+                read: list[Path]) -> tuple[Path, Path | None]:
+    """The model file and report folder of a fit, refused before any work if they exist.
+
+    Without --out, both go into the run's own ``folder``; with --out, a report only where
+    --report says. ``read`` are the files the run reads, which it must not write over.
+    """
+    if model_path is None:
+        model_path, report_dir = folder / "model.json", report_dir or folder / "report"
+    check_output_file(model_path, "--out", read)
+    if report_dir is not None:
+        check_output_folder(report_dir, "--report", (REPORT_FILE,), read)
+    refuse_overwrite([model_path] + ([report_dir / REPORT_FILE] if report_dir is not None else []), force)
+    return model_path, report_dir
 
 
 def save_held(model: Any, model_path: Path, hold: InterruptHold) -> None:

@@ -63,6 +63,9 @@ class FrequencyResult:
     seconds : float
     covariance_note : str or None
         Why the model carries no covariance; None when it does.
+    path_models : list of StateSpaceModel or ContinuousModel
+        Each path step's model in the data's units (no covariance), for the poles of every
+        order tried (the stabilization diagram of ``moli fit --frequency``).
     """
 
     model: StateSpaceModel | ContinuousModel
@@ -72,6 +75,7 @@ class FrequencyResult:
     held_out: np.ndarray = field(repr=False)
     seconds: float
     covariance_note: str | None = None
+    path_models: list[StateSpaceModel | ContinuousModel] = field(default_factory=list, repr=False)
 
     @property
     def selected(self) -> FrequencyStep:
@@ -91,7 +95,8 @@ def _physical(data: FrequencyData, domain: FitDomain, matrices_: tuple[np.ndarra
         factor = factor.copy()
         factor[: n * n + n * m] *= domain.scale
     return ContinuousModel(A * domain.scale, B * domain.scale, C, D, tuple(data.output_names),
-                           tuple(data.input_names), np.zeros(C.shape[0]), np.zeros(m), (0.0,) * m, factor)
+                           tuple(data.input_names), np.zeros(C.shape[0]), np.zeros(m), (0.0,) * m, factor,
+                           info=info)
 
 
 def _check_size(data: FrequencyData, estimation_lines: int, nmax: int) -> None:
@@ -165,4 +170,7 @@ def identify_frequency(
         warnings.warn(UnstableModelWarning(f"the model fitted to the frequency data is unstable ({worst}), as "
                                            "max_radius=None allows"), stacklevel=3)
     return FrequencyResult(model=model, path=path, selected_index=index, options=options, held_out=held_out,
-                           seconds=time.perf_counter() - start_time, covariance_note=note)
+                           seconds=time.perf_counter() - start_time, covariance_note=note,
+                           path_models=[_physical(data, domain, matrices(each.layout, each.theta), None,
+                                                  {"order": each.order})
+                                        for each in path])
