@@ -4,7 +4,7 @@ Usage (peers: ``pip install sippy-unipi nfoursid pandas joblib matplotlib``)::
 
     PYTHONPATH=src:benchmarks python benchmarks/generalization.py \\
         [--variants default,improved,paper] [--synthetic 80] [--seed 0] \\
-        [--jobs 2] [--quick] [--out bench-results] [--peers-from JSON]
+        [--jobs 2] [--quick] [--max-estimation N] [--out bench-results] [--peers-from JSON]
 
 Cases (DaISy files read in place from $MOLI_DATA_DIR, else ../shared/data/daisy):
 
@@ -65,6 +65,8 @@ import moli  # noqa: E402
 # choices of one of them, to show what each choice is worth.
 VARIANTS: dict[str, dict[str, Any]] = {
     "default": {},
+    # the realization of a regularized (TC) impulse response, its order on V1 (docs/regularization.md)
+    "kernel": {"method": "kernel"},
     "fast": {"preset": "fast"},
     "improved": {"preset": "improved"},
     "improved_tol05": {"preset": "improved", "order_tolerance": 0.5},
@@ -406,6 +408,8 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of the synthetic family")
     parser.add_argument("--jobs", type=int, default=2, help="parallel workers (loky)")
     parser.add_argument("--quick", action="store_true", help="a few cases, for a smoke run")
+    parser.add_argument("--max-estimation", type=int, metavar="N",
+                        help="only the cases whose estimation part has at most N samples (short records)")
     parser.add_argument("--out", default="bench-results", help="folder of the results")
     parser.add_argument("--peers-from", metavar="JSON",
                         help="reuse the peers' results of an earlier run's generalization.json "
@@ -420,6 +424,8 @@ def main() -> None:
     for name, reason in gc.DAISY_SKIPPED.items():
         print(f"skipped {name}: {reason}")
     cases = build_cases(args.synthetic, args.seed, args.quick)
+    if args.max_estimation is not None:
+        cases = [case for case in cases if case.est.N <= args.max_estimation]
     recorded: dict[str, Line] = {}
     if args.peers_from:
         recorded = {res["name"]: {k: res[k] for k in PEER_KEYS}
