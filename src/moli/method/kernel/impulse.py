@@ -27,6 +27,9 @@ __all__ = ["ImpulseResponse", "impulse_response"]
 # its end, as long as the record keeps ROWS_PER_COEFFICIENT rows per coefficient of an output.
 START_LENGTH = 20
 DECAY_LEFT = 0.01
+# Coefficients per output the chosen length stops at: each likelihood evaluation costs a QR of
+# twice as many rows by one more column, and at 640 (four inputs, 160 lags) one fit took minutes.
+MAX_COEFFICIENTS = 200
 ROWS_PER_COEFFICIENT = 0.5
 MAX_DOUBLINGS = 4
 
@@ -104,8 +107,8 @@ def impulse_response(data: IOData, kernel: str = "TC", length: int | None = None
     length : int, optional
         Coefficients per pair. None: from 20, doubled while the fitted kernels still expect
         more than 1 % of the response (prior standard deviation against lag 1) at the end,
-        up to half a row per coefficient of an output and four doublings; "none" takes the
-        length the TC kernel finds.
+        up to half a row per coefficient of an output, 200 coefficients per output and four
+        doublings; "none" takes the length the TC kernel finds.
     feedthrough : bool, default False
         Also estimate lag 0 (a direct feedthrough).
     center : bool, default True
@@ -194,7 +197,7 @@ def _chosen_length(record: IOData, kernel: str, first: int) -> int:
         left = max(decay_of(kernel, z, int(lags[-1])) for fit in fits for z in fit.coordinates)
         longer = 2 * length
         enough_rows = fir_rows(record, np.arange(first, first + longer)) >= ROWS_PER_COEFFICIENT * record.m * longer
-        if left <= DECAY_LEFT or not enough_rows or longer > longest // 2:
+        if left <= DECAY_LEFT or not enough_rows or longer > longest // 2 or record.m * longer > MAX_COEFFICIENTS:
             break
         length = longer
     return length
