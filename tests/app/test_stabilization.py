@@ -61,3 +61,13 @@ def test_the_true_modes_stay_stable_over_a_fit_s_orders(tmp_path):
             assert [pt.status for pt in near] == ["all"], (order, target)
     fig = stabilization_figure(points, result.selected.order, (omega[0] / (2 * np.pi), omega[-1] / (2 * np.pi)))
     assert fig.axes[0].get_ylabel() == "order (states)"
+
+
+def test_an_order_whose_model_has_a_pole_at_zero_shows_no_modes_and_the_next_starts_anew():
+    # a sampled model with a pole at z = 0 (a pure delay) has no continuous-time modes: the
+    # diagram leaves that order empty instead of failing, and the next order's modes are all new
+    delay = moli.StateSpaceModel(np.diag([0.0, 0.9]), [[1.0], [1.0]], [[1.0, 1.0]], Ts=0.1)
+    plain = moli.StateSpaceModel([[0.9]], [[1.0]], [[1.0]], Ts=0.1)
+    points = stabilization([plain, delay, plain])
+    assert [pt.order for pt in points] == [1, 1]
+    assert points[-1].status == "new"

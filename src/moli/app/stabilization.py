@@ -25,6 +25,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.ticker import MaxNLocator
 
+from ..errors import DataError
 from ..models.modal import Mode, modes
 from .figures import new_figure
 
@@ -116,7 +117,10 @@ def stabilization(models: Sequence[Any]) -> list[StabilizationPoint]:
     points: list[StabilizationPoint] = []
     previous: tuple[Mode, ...] = ()
     for model in models:
-        found = modes(model)
+        try:
+            found = modes(model)
+        except DataError:       # a sampled model with a pole at z = 0 has no continuous-time modes: none shown
+            found = ()
         points += [_compared(model.n, mode, previous) for mode in found]
         previous = found
     return points
