@@ -20,6 +20,7 @@ from ...data.iodata import IOData
 from ...errors import DataError, OptionError
 from ...models.statespace import StateSpaceModel
 from ...validation.comparison import X0_CHOICES, compare, same_period
+from ..search.greedy_path import ScoredStep
 from ..selection.order_rules import PAIRED_Z, select_by_shares
 from ..selection.paired_test import error_shares
 from .impulse import ImpulseResponse, impulse_response
@@ -32,22 +33,12 @@ HOLDOUT_FRACTION = 0.3
 
 
 @dataclass
-class KernelStep:
-    """One order's realization and its validation VAF per output."""
+class KernelStep(ScoredStep):
+    """One order's realization and its validation VAF per output (scored as a path step is)."""
 
     order: int
     model: StateSpaceModel
     vaf: np.ndarray
-
-    @property
-    def mean_vaf(self) -> float:
-        """Mean validation VAF over the outputs."""
-        return float(np.mean(self.vaf))
-
-    @property
-    def stable(self) -> bool:
-        """Whether the realization's poles are inside the unit circle."""
-        return self.model.is_stable()
 
 
 @dataclass
