@@ -197,3 +197,33 @@ def test_bad_periodic_records_are_one_clear_error(make, message):
     args, keywords = make(record)
     with pytest.raises(DataError, match=message):
         moli.frequency_response(*args, **keywords)
+
+
+def _table(tmp_path, spread_parts):
+    """A 2x1 table of re/im columns at three lines, with the uncertainty columns given."""
+    header = ["frequency_hz", "y1/u1 re", "y1/u1 im", "y2/u1 re", "y2/u1 im", *spread_parts]
+    rows = [[1, 1.0, 0.0, 0.5, -0.5], [2, 0.5, -0.5, 0.25, -0.25], [3, 0.2, -0.4, 0.1, -0.1]]
+    values = {"y1/u1 var": [0.01, 0.02, 0.03], "y2/u1 var": [0.04, 0.05, 0.06],
+              "y1/u1 sd": [0.1, 0.2, 0.3], "y2/u1 sd": [0.2, 0.3, 0.4]}
+    lines = [",".join(header)] + [",".join(str(v) for v in row + [values[p][k] for p in spread_parts])
+                                  for k, row in enumerate(rows)]
+    path = tmp_path / "frf.csv"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+@pytest.mark.parametrize("parts, expected", [
+    (["y1/u1 var", "y2/u1 var"], [[0.01, 0.04], [0.02, 0.05], [0.03, 0.06]]),
+    (["y1/u1 sd", "y2/u1 sd"], [[0.01, 0.04], [0.04, 0.09], [0.09, 0.16]]),     # squared
+])
+def test_each_lines_uncertainty_is_read_as_its_variance(tmp_path, parts, expected):
+    with pytest.warns(moli.FrequencyConventionWarning, match="from the '(var|sd)' columns"):
+        data = moli.read_frequency_data(_table(tmp_path, parts))
+    np.testing.assert_allclose(data.variance[:, :, 0], expected)
+
+
+def test_an_uncertainty_column_for_some_pairs_only_is_refused(tmp_path):
+    with pytest.raises(moli.DataError, match="the same uncertainty column"):
+        moli.read_frequency_data(_table(tmp_path, ["y1/u1 var"]))
+    with pytest.raises(moli.DataError, match="the same uncertainty column"):
+        moli.read_frequency_data(_table(tmp_path, ["y1/u1 var", "y2/u1 sd"]))

@@ -4,7 +4,9 @@ The table has one frequency column, ``frequency_hz`` or ``frequency_rad_s``, and
 columns per output/input pair, named ``"<output>/<input> <part>"``: the parts ``re`` and
 ``im`` (the complex response), or a magnitude (``dB`` for ``20 log10 |G|``, ``mag`` for
 ``|G|``) and a phase (``deg`` or ``rad``). One convention holds for the whole table; the
-channel names come from the headers, in the order they first appear.
+channel names come from the headers, in the order they first appear. Each pair may add the
+uncertainty of each line, as the variance of the complex response (``var``, ``E|G - G_0|^2``,
+as an analyzer's averages give it) or its square root (``sd``): every pair or none.
 """
 
 from __future__ import annotations
@@ -30,7 +32,9 @@ CONVENTIONS = {
     ("mag", "deg"): "linear magnitude and phase in degrees",
     ("mag", "rad"): "linear magnitude and phase in radians",
 }
-PAIR_COLUMN = re.compile(r"^\s*(?P<output>[^/]+?)\s*/\s*(?P<input>.+?)\s+(?P<part>re|im|db|deg|mag|rad)\s*$",
+# The parts that give a line's uncertainty, and how each becomes the variance.
+SPREADS = {"var": lambda values: values, "sd": lambda values: values ** 2}
+PAIR_COLUMN = re.compile(r"^\s*(?P<output>[^/]+?)\s*/\s*(?P<input>.+?)\s+(?P<part>re|im|db|deg|mag|rad|var|sd)\s*$",
                          re.IGNORECASE)
 
 
@@ -68,7 +72,7 @@ def _pairs(columns: list[str], source: str) -> tuple[str, dict[tuple[str, str], 
         match = PAIR_COLUMN.match(column)
         if match is None:
             raise DataError(f"{source}: column {column!r} is neither the frequency column nor "
-                            "'<output>/<input> <part>' with the part re, im, dB, mag, deg or rad")
+                            "'<output>/<input> <part>' with the part re, im, dB, mag, deg or rad (or var, sd)")
         parts = pairs.setdefault((match["output"], match["input"]), {})
         part = match["part"].lower()
         if part in parts:
@@ -82,7 +86,7 @@ def _pairs(columns: list[str], source: str) -> tuple[str, dict[tuple[str, str], 
 def _convention(pairs: dict[tuple[str, str], dict[str, str]], source: str) -> tuple[str, str]:
     seen = set()
     for (output, input_), parts in pairs.items():
-        kind = next((c for c in CONVENTIONS if set(c) == set(parts)), None)
+        kind = next((c for c in CONVENTIONS if set(c) == set(parts) - set(SPREADS)), None)
         if kind is None:
             raise DataError(f"{source}: pair {output}/{input_} has the parts {sorted(parts.values())}; each pair "
                             "needs 're' and 'im', or a magnitude ('dB' or 'mag') and a phase ('deg' or 'rad')")
@@ -91,6 +95,16 @@ def _convention(pairs: dict[tuple[str, str], dict[str, str]], source: str) -> tu
         raise DataError(f"{source}: the pairs mix conventions ({'; '.join(CONVENTIONS[c] for c in sorted(seen))}); "
                         "write every pair the same way")
     return seen.pop()
+
+
+def _spread(pairs: dict[tuple[str, str], dict[str, str]], source: str) -> str | None:
+    """The uncertainty part every pair gives ("var" or "sd"), or None where none gives one."""
+    given = {(output, input_): [part for part in SPREADS if part in parts] for (output, input_), parts in pairs.items()}
+    kinds = {tuple(found) for found in given.values()}
+    if len(kinds) > 1 or any(len(found) > 1 for found in given.values()):
+        shown = "; ".join(f"{o}/{i}: {', '.join(found) or 'none'}" for (o, i), found in given.items())
+        raise DataError(f"{source}: give every pair the same uncertainty column ('var' or 'sd'), or none: {shown}")
+    return next(iter(kinds))[0] if kinds and next(iter(kinds)) else None
 
 
 def read_frequency_data(path: str | Path, *, Ts: float | None = None, sep: str = ",") -> FrequencyData:
@@ -155,18 +169,25 @@ def read_frequency_data(path: str | Path, *, Ts: float | None = None, sep: str =
     missing = [f"{o}/{i}" for o in outputs for i in inputs if (o, i) not in pairs]
     if missing:
         raise DataError(f"{source}: every output/input pair needs its columns; missing {', '.join(missing)}")
+    spread = _spread(pairs, source)
     G = np.empty((len(frame), len(outputs), len(inputs)), dtype=complex)
+    variance = None if spread is None else np.empty(G.shape)
     for (output, input_), parts in pairs.items():
         first, second = (_numbers(frame, parts[part], source) for part in convention)
         G[:, outputs.index(output), inputs.index(input_)] = _complex(first, second, convention)
+        if variance is not None:
+            variance[:, outputs.index(output), inputs.index(input_)] = SPREADS[spread](
+                _numbers(frame, parts[spread], source))
     unit = FREQUENCY_COLUMNS[frequency.strip().lower()]
     try:
-        data = FrequencyData(_numbers(frame, frequency, source), G, unit=unit, Ts=Ts,
+        data = FrequencyData(_numbers(frame, frequency, source), G, unit=unit, Ts=Ts, variance=variance,
                              output_names=outputs, input_names=inputs)
     except DataError as exc:
         raise DataError(f"{source}: {exc}") from None
     warnings.warn(FrequencyConventionWarning(
-        f"{source}: frequencies in {unit} from column {frequency!r}; responses as {CONVENTIONS[convention]} "
-        f"for {len(outputs)} output(s) ({', '.join(outputs)}) and {len(inputs)} input(s) ({', '.join(inputs)}); "
+        f"{source}: frequencies in {unit} from column {frequency!r}; responses as {CONVENTIONS[convention]}"
+        + ("" if spread is None else f", each line's {'variance' if spread == 'var' else 'standard deviation'} "
+                                     f"from the '{spread}' columns,")
+        + f" for {len(outputs)} output(s) ({', '.join(outputs)}) and {len(inputs)} input(s) ({', '.join(inputs)}); "
         f"{'continuous time' if Ts is None else f'discrete time, Ts = {Ts:g}'}"), stacklevel=2)
     return data
