@@ -227,3 +227,19 @@ def test_an_uncertainty_column_for_some_pairs_only_is_refused(tmp_path):
         moli.read_frequency_data(_table(tmp_path, ["y1/u1 var"]))
     with pytest.raises(moli.DataError, match="the same uncertainty column"):
         moli.read_frequency_data(_table(tmp_path, ["y1/u1 var", "y2/u1 sd"]))
+
+
+def test_a_workbook_reads_as_its_csv(tmp_path):
+    # the same table written as CSV and as the first sheet of a workbook: the same data
+    import pandas as pd
+
+    csv = _table(tmp_path, ["y1/u1 sd", "y2/u1 sd"])
+    pd.read_csv(csv).to_excel(tmp_path / "frf.xlsx", index=False)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", moli.FrequencyConventionWarning)
+        from_csv, from_xlsx = moli.read_frequency_data(csv), moli.read_frequency_data(tmp_path / "frf.xlsx")
+    np.testing.assert_array_equal(from_xlsx.G, from_csv.G)
+    np.testing.assert_array_equal(from_xlsx.variance, from_csv.variance)
+    (tmp_path / "broken.xlsx").write_bytes(b"not a workbook")
+    with pytest.raises(moli.DataError, match="broken.xlsx: not a readable table"):
+        moli.read_frequency_data(tmp_path / "broken.xlsx")

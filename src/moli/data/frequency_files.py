@@ -1,4 +1,5 @@
-"""read_frequency_data: a CSV table of frequency responses → FrequencyData, saying which convention it read.
+"""read_frequency_data: a table of frequency responses (CSV or .xlsx) → FrequencyData, saying which
+convention it read.
 
 The table has one frequency column, ``frequency_hz`` or ``frequency_rad_s``, and two
 columns per output/input pair, named ``"<output>/<input> <part>"``: the parts ``re`` and
@@ -13,6 +14,7 @@ from __future__ import annotations
 
 import re
 import warnings
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -108,17 +110,19 @@ def _spread(pairs: dict[tuple[str, str], dict[str, str]], source: str) -> str | 
 
 
 def read_frequency_data(path: str | Path, *, Ts: float | None = None, sep: str = ",") -> FrequencyData:
-    """Read a table of frequency responses (CSV) into :class:`FrequencyData`.
+    """Read a table of frequency responses (CSV, or the first sheet of an ``.xlsx`` workbook)
+    into :class:`FrequencyData`.
 
     Parameters
     ----------
     path : str or Path
-        The table (see the module's description, and docs/frequency.md for an example).
+        The table (see the module's description, and docs/frequency.md for an example); a
+        name ending in ``.xlsx`` is read as a workbook.
     Ts : float, optional
         Sampling period when the responses are those of a discrete-time system; None:
         continuous time.
     sep : str, default ","
-        The column separator.
+        The column separator of a CSV table.
 
     Returns
     -------
@@ -157,8 +161,11 @@ def read_frequency_data(path: str | Path, *, Ts: float | None = None, sep: str =
     if not Path(path).is_file():
         raise DataError(f"{source}: no such file")
     try:
-        frame = pd.read_csv(path, sep=sep)
-    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        if Path(path).suffix.lower() == ".xlsx":
+            frame = pd.read_excel(path, sheet_name=0, engine="openpyxl")
+        else:
+            frame = pd.read_csv(path, sep=sep)
+    except (pd.errors.ParserError, UnicodeDecodeError, ValueError, OSError, zipfile.BadZipFile) as exc:
         raise DataError(f"{source}: not a readable table: {exc}") from None
     columns = [str(c) for c in frame.columns]
     frame.columns = columns
