@@ -20,7 +20,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import scipy.linalg
-import scipy.optimize
 
 from .fir_rows import FirFactor
 from .kernels import ARTANH_BOUND, LOGIT_BOUND, hyperparameter_count, kernel_matrix, square_root
@@ -126,6 +125,8 @@ def fit_output(factor: FirFactor, j: int, kind: str, lags: np.ndarray, scales: n
         bounds += [(x0[i * size] - LOG_RANGE, x0[i * size] + LOG_RANGE), LOGIT_BOUND] + \
                   ([ARTANH_BOUND] if kind == "DC" else [])
     bounds.append((x0[-1] - LOG_RANGE, x0[-1] + LOG_RANGE))
+    import scipy.optimize  # 0.1 s to import: only when a kernel's hyperparameters are searched
+
     low, high = np.array(bounds).T
     # the search is unbounded and the coordinates clipped inside the objective: L-BFGS-B's
     # projected first step stalled at the start on records where the likelihood falls steeply
