@@ -125,12 +125,12 @@ def fit_output(factor: FirFactor, j: int, kind: str, lags: np.ndarray, scales: n
         bounds += [(x0[i * size] - LOG_RANGE, x0[i * size] + LOG_RANGE), LOGIT_BOUND] + \
                   ([ARTANH_BOUND] if kind == "DC" else [])
     bounds.append((x0[-1] - LOG_RANGE, x0[-1] + LOG_RANGE))
-    import scipy.optimize  # 0.1 s to import: only when a kernel's hyperparameters are searched
+    from scipy import optimize  # 0.1 s to import: only when a kernel's hyperparameters are searched
 
     low, high = np.array(bounds).T
     # the search is unbounded and the coordinates clipped inside the objective: L-BFGS-B's
     # projected first step stalled at the start on records where the likelihood falls steeply
-    found = scipy.optimize.minimize(lambda x: _objective(np.clip(x, low, high), factor, j, kind, lags, m), x0,
+    found = optimize.minimize(lambda x: _objective(np.clip(x, low, high), factor, j, kind, lags, m), x0,
                                     method="L-BFGS-B", options={"ftol": FTOL, "maxiter": MAX_ITERATIONS})
     x = np.clip(found.x, low, high) if found.fun <= best[1] else x0
     coordinates, sigma2 = _split(kind, m, x)
