@@ -243,3 +243,47 @@ def test_a_workbook_reads_as_its_csv(tmp_path):
     (tmp_path / "broken.xlsx").write_bytes(b"not a workbook")
     with pytest.raises(moli.DataError, match="broken.xlsx: not a readable table"):
         moli.read_frequency_data(tmp_path / "broken.xlsx")
+
+
+def _response(hz):
+    """A 2-output, 1-input continuous response at ``hz``: 1 / (s + 1) and 2 / (s + 4)."""
+    s = 2j * np.pi * hz
+    return np.stack([1 / (s + 1), 2 / (s + 4)], axis=1)[:, :, None]        # (F, 2, 1)
+
+
+def test_a_mat_file_reads_in_either_convention(tmp_path):
+    import scipy.io
+
+    hz = np.array([0.1, 0.5, 1.0, 2.0])
+    G = _response(hz)
+    scipy.io.savemat(tmp_path / "moli.mat", {"G": G, "frequency_hz": hz, "variance": np.full(G.shape, 1e-4),
+                                             "output_names": np.array(["disp", "vel"], dtype=object),
+                                             "input_names": np.array(["force"], dtype=object),
+                                             "unused": np.zeros(3)})
+    # MATLAB's idfrd fields, ResponseData (p, m, F) and Frequency in rad/s by default
+    scipy.io.savemat(tmp_path / "idfrd.mat", {"ResponseData": G.transpose(1, 2, 0), "Frequency": 2 * np.pi * hz,
+                                              "OutputName": np.array(["disp", "vel"], dtype=object)})
+    with pytest.warns(moli.FrequencyConventionWarning, match="G \\(F x p x m\\) with frequency_hz"):
+        first = moli.read_frequency_data(tmp_path / "moli.mat")
+    with pytest.warns(moli.FrequencyConventionWarning, match="ResponseData \\(p x m x F\\) with Frequency in rad/s"):
+        second = moli.read_frequency_data(tmp_path / "idfrd.mat")
+    for data in (first, second):
+        np.testing.assert_allclose(data.G, G)
+        np.testing.assert_allclose(data.omega, 2 * np.pi * hz)
+        assert tuple(data.output_names) == ("disp", "vel")
+    assert tuple(first.input_names) == ("force",) and first.variance is not None and second.variance is None
+
+
+def test_a_mat_file_without_the_arrays_says_what_it_needs(tmp_path):
+    import scipy.io
+
+    scipy.io.savemat(tmp_path / "other.mat", {"y": np.zeros(4)})
+    with pytest.raises(moli.DataError, match="needs G .* or ResponseData .*; it holds y"):
+        moli.read_frequency_data(tmp_path / "other.mat")
+    scipy.io.savemat(tmp_path / "hz.mat", {"ResponseData": np.ones((1, 1, 3)), "Frequency": [1.0, 2.0, 3.0],
+                                           "FrequencyUnit": "cycles"})
+    with pytest.raises(moli.DataError, match="FrequencyUnit 'cycles'"):
+        moli.read_frequency_data(tmp_path / "hz.mat")
+    (tmp_path / "broken.mat").write_bytes(b"MATLAB but not really")
+    with pytest.raises(moli.DataError, match="not a readable .mat file"):
+        moli.read_frequency_data(tmp_path / "broken.mat")

@@ -1,5 +1,5 @@
-"""read_frequency_data: a table of frequency responses (CSV or .xlsx) → FrequencyData, saying which
-convention it read.
+"""read_frequency_data: a table of frequency responses (CSV or .xlsx) or a MATLAB file → FrequencyData,
+saying which convention it read.
 
 The table has one frequency column, ``frequency_hz`` or ``frequency_rad_s``, and two
 columns per output/input pair, named ``"<output>/<input> <part>"``: the parts ``re`` and
@@ -8,6 +8,12 @@ columns per output/input pair, named ``"<output>/<input> <part>"``: the parts ``
 channel names come from the headers, in the order they first appear. Each pair may add the
 uncertainty of each line, as the variance of the complex response (``var``, ``E|G - G_0|^2``,
 as an analyzer's averages give it) or its square root (``sd``): every pair or none.
+
+A ``.mat`` file holds the arrays themselves: ``G`` of shape (F, p, m) with ``frequency_hz`` or
+``frequency_rad_s`` (and optionally ``variance`` shaped as ``G``, ``output_names`` and
+``input_names``), or the fields of MATLAB's ``idfrd`` saved as variables: ``ResponseData``
+(p, m, F) with ``Frequency`` and, optionally, ``FrequencyUnit`` ("rad/s", the default, or "Hz"),
+``OutputName`` and ``InputName``.
 """
 
 from __future__ import annotations
@@ -22,7 +28,7 @@ import numpy as np
 from ..errors import DataError, FrequencyConventionWarning
 from .frequency_data import FrequencyData
 
-__all__ = ["read_frequency_data", "FREQUENCY_COLUMNS", "CONVENTIONS"]
+__all__ = ["read_frequency_data", "FREQUENCY_COLUMNS", "CONVENTIONS", "MAT_VARIABLES"]
 
 # The frequency column's name (any letter case) → its unit.
 FREQUENCY_COLUMNS = {"frequency_hz": "Hz", "frequency_rad_s": "rad/s"}
@@ -34,6 +40,9 @@ CONVENTIONS = {
     ("mag", "deg"): "linear magnitude and phase in degrees",
     ("mag", "rad"): "linear magnitude and phase in radians",
 }
+# The variables of a .mat file the reader looks at (no other is inflated).
+MAT_VARIABLES = ("G", "frequency_hz", "frequency_rad_s", "variance", "output_names", "input_names",
+                 "ResponseData", "Frequency", "FrequencyUnit", "OutputName", "InputName")
 # The parts that give a line's uncertainty, and how each becomes the variance.
 SPREADS = {"var": lambda values: values, "sd": lambda values: values ** 2}
 PAIR_COLUMN = re.compile(r"^\s*(?P<output>[^/]+?)\s*/\s*(?P<input>.+?)\s+(?P<part>re|im|db|deg|mag|rad|var|sd)\s*$",
@@ -109,6 +118,61 @@ def _spread(pairs: dict[tuple[str, str], dict[str, str]], source: str) -> str | 
     return next(iter(kinds))[0] if kinds and next(iter(kinds)) else None
 
 
+def _mat_text(value: object) -> str:
+    """A MATLAB char array as text."""
+    return "".join(str(part) for part in np.asarray(value).ravel())
+
+
+def _mat_names(value: object) -> list[str]:
+    """A MATLAB cell array (or char matrix) of names as a list of strings."""
+    array = np.asarray(value)
+    if array.dtype == object:
+        return [_mat_text(cell) for cell in array.ravel()]
+    return [_mat_text(row) for row in np.atleast_2d(array)]
+
+
+def _read_mat(path: str | Path, source: str, Ts: float | None) -> tuple[FrequencyData, str]:
+    """The arrays of a .mat file (the module's two conventions) and how they were read."""
+    from scipy.io import loadmat, whosmat  # only when a .mat file is read
+
+    try:
+        listed = {name for name, _, _ in whosmat(path)}
+        content = loadmat(path, variable_names=[n for n in MAT_VARIABLES if n in listed], squeeze_me=False)
+    except (ValueError, OSError, NotImplementedError, TypeError, IndexError, KeyError) as exc:
+        # scipy's reader fails on a damaged file with any of these
+        raise DataError(f"{source}: not a readable .mat file: {type(exc).__name__}: {exc}") from None
+    if "G" in content:
+        found = [n for n in FREQUENCY_COLUMNS if n in content]
+        if len(found) != 1:
+            raise DataError(f"{source}: G needs exactly one of frequency_hz and frequency_rad_s; found {found or 'none'}")
+        G, unit = np.asarray(content["G"]), FREQUENCY_COLUMNS[found[0]]
+        frequencies, how = content[found[0]], f"G (F x p x m) with {found[0]}"
+        variance = content.get("variance")
+        names = [_mat_names(content[n]) if n in content else None for n in ("output_names", "input_names")]
+        if G.ndim != 3:
+            raise DataError(f"{source}: G must have shape (F, p, m), got {G.shape}")
+    elif "ResponseData" in content and "Frequency" in content:
+        response = np.asarray(content["ResponseData"])
+        if response.ndim != 3:
+            raise DataError(f"{source}: ResponseData must have shape (p, m, F), got {response.shape}")
+        G, frequencies, variance = response.transpose(2, 0, 1), content["Frequency"], None
+        stated = _mat_text(content["FrequencyUnit"]) if "FrequencyUnit" in content else "rad/s"
+        if stated.lower() not in ("hz", "rad/s", "rad/timeunit"):
+            raise DataError(f"{source}: FrequencyUnit {stated!r} is neither 'Hz' nor 'rad/s'")
+        unit = "Hz" if stated.lower() == "hz" else "rad/s"
+        how = f"ResponseData (p x m x F) with Frequency in {unit}"
+        names = [_mat_names(content[n]) if n in content else None for n in ("OutputName", "InputName")]
+    else:
+        raise DataError(f"{source}: needs G (F x p x m) with frequency_hz or frequency_rad_s, or ResponseData "
+                        f"(p x m x F) with Frequency; it holds {', '.join(sorted(listed)) or 'no variable'}")
+    try:
+        data = FrequencyData(np.asarray(frequencies, dtype=float).ravel(), G, unit=unit, Ts=Ts, variance=variance,
+                             output_names=names[0], input_names=names[1])
+    except DataError as exc:
+        raise DataError(f"{source}: {exc}") from None
+    return data, how
+
+
 def read_frequency_data(path: str | Path, *, Ts: float | None = None, sep: str = ",") -> FrequencyData:
     """Read a table of frequency responses (CSV, or the first sheet of an ``.xlsx`` workbook)
     into :class:`FrequencyData`.
@@ -160,6 +224,13 @@ def read_frequency_data(path: str | Path, *, Ts: float | None = None, sep: str =
     source = str(path)
     if not Path(path).is_file():
         raise DataError(f"{source}: no such file")
+    if Path(path).suffix.lower() == ".mat":
+        data, how = _read_mat(path, source, Ts)
+        warnings.warn(FrequencyConventionWarning(
+            f"{source}: {how}; {data.p} output(s) ({', '.join(data.output_names)}) and {data.m} input(s) "
+            f"({', '.join(data.input_names)}); "
+            f"{'continuous time' if Ts is None else f'discrete time, Ts = {Ts:g}'}"), stacklevel=2)
+        return data
     try:
         if Path(path).suffix.lower() == ".xlsx":
             frame = pd.read_excel(path, sheet_name=0, engine="openpyxl")
