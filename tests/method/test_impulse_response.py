@@ -204,3 +204,30 @@ def test_identify_hands_the_kernel_method_over_and_refuses_what_it_would_ignore(
         moli.identify(data, method="kernel", time="continuous")
     with pytest.raises(moli.OptionError, match="IdentifyOptions.method"):
         moli.IdentifyOptions(method="ridge")
+
+
+def test_a_kernel_model_goes_through_save_info_validate_and_a_fleet(tmp_path):
+    from click.testing import CliRunner
+
+    from moli.app.cli import cli
+
+    data = moli.example_data(N=300, seed=1)
+    result = moli.identify(data, method="kernel", nmax=6)
+    # it records what made it, as every identification does
+    assert result.model.info["options"]["method"] == "kernel"
+    result.model.save(tmp_path / "kernel.json")
+    moli.to_dataframe(data).to_csv(tmp_path / "plant.csv")
+    runner = CliRunner()
+    shown = runner.invoke(cli, ["info", str(tmp_path / "kernel.json")])
+    assert shown.exit_code == 0 and f"n = {result.model.n}" in shown.output
+    scored = runner.invoke(cli, ["validate", str(tmp_path / "kernel.json"), str(tmp_path / "plant.csv"),
+                                 "--inputs", "u1,u2,u3", "--outputs", "y1,y2,y3", "--out", str(tmp_path / "v")])
+    assert scored.exit_code == 0, scored.output
+    # the command line has no kernel report yet: its options are refused in one line, before any work
+    refused = runner.invoke(cli, ["fit", str(tmp_path / "plant.csv"), "--inputs", "u1,u2,u3", "--outputs",
+                                  "y1,y2,y3", "--options", str(tmp_path / "kernel.json")])
+    assert refused.exit_code == 2 and "method='kernel'" in refused.output
+    # a fleet in Python: each record's kernel model and its fit on the held-out tail
+    fleet = moli.identify_many({"a": data, "b": moli.example_data(N=300, seed=2)},
+                               moli.IdentifyOptions(method="kernel", nmax=6))
+    assert all(entry.error is None and entry.fit is not None for entry in fleet.entries)

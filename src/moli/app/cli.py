@@ -105,7 +105,11 @@ def options_from_flags(options_file: Path | None, preset: str | None, **flags: A
         raise OptionError(f"--options: {options_file} is not a JSON file: {exc}") from None
     if isinstance(content, dict) and content.get("format") == "moli-model":
         content = _model_options(content, options_file)
-    return IdentifyOptions.from_dict(content).replace(**given)
+    options = IdentifyOptions.from_dict(content).replace(**given)
+    if options.method == "kernel":      # its result has no path to report or fleet row to write yet
+        raise OptionError(f"--options: {options_file} asks for method='kernel', which the command line does not "
+                          "run yet: use moli.identify(data, method='kernel') in Python, or method 'moli'")
+    return options
 
 
 def _model_options(model: dict[str, Any], options_file: Path) -> dict[str, Any]:

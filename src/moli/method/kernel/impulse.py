@@ -153,8 +153,9 @@ def impulse_response(data: IOData, kernel: str = "TC", length: int | None = None
     if length is not None and length >= longest:
         raise DataError(f"length = {length} lags reach beyond the longest segment ({longest} samples): "
                         "give a shorter length")
+    chosen = None
     if length is None:
-        length = _chosen_length(record, "TC" if kernel == "none" else kernel, first)
+        length, chosen = _chosen_length(record, "TC" if kernel == "none" else kernel, first)
     lags = np.arange(first, first + length)
     rows, per_output = fir_rows(record, lags), record.m * length
     if rows < 1 or (kernel == "none" and rows <= per_output):
@@ -162,7 +163,8 @@ def impulse_response(data: IOData, kernel: str = "TC", length: int | None = None
                         f"({per_output} coefficients per output): "
                         + ("least squares needs more rows than coefficients; use a kernel or a shorter length"
                            if kernel == "none" else "give a longer record or a shorter length"))
-    fits = _fits(record, lags, kernel)
+    # the length's search fitted this kernel at the length it chose: its fits are the estimate
+    fits = chosen if chosen is not None and kernel != "none" else _fits(record, lags, kernel)
     n, m = length, record.m
     return ImpulseResponse(
         coefficients=np.stack([f.coefficients.reshape(m, n).T for f in fits], axis=1),
@@ -187,8 +189,9 @@ def _fits(record: IOData, lags: np.ndarray, kernel: str) -> list[OutputFit]:
     return [fit_output(factor, j, kernel, lags, scales) for j in range(record.p)]
 
 
-def _chosen_length(record: IOData, kernel: str, first: int) -> int:
-    """:data:`START_LENGTH` lags, doubled while the fitted kernels expect more of the response."""
+def _chosen_length(record: IOData, kernel: str, first: int) -> tuple[int, list[OutputFit] | None]:
+    """:data:`START_LENGTH` lags, doubled while the fitted kernels expect more of the response; and
+    the fits at that length (None where the last doubling was not fitted)."""
     longest = max(stop - start for start, stop in record.bounds)
     length = max(1, min(START_LENGTH, longest // 2))
     for _ in range(MAX_DOUBLINGS):
@@ -198,6 +201,6 @@ def _chosen_length(record: IOData, kernel: str, first: int) -> int:
         longer = 2 * length
         enough_rows = fir_rows(record, np.arange(first, first + longer)) >= ROWS_PER_COEFFICIENT * record.m * longer
         if left <= DECAY_LEFT or not enough_rows or longer > longest // 2 or record.m * longer > MAX_COEFFICIENTS:
-            break
+            return length, fits
         length = longer
-    return length
+    return length, None

@@ -44,12 +44,14 @@ class KernelStep(ScoredStep):
 @dataclass
 class KernelResult:
     """What :func:`identify_kernel` returns: the selected model, the impulse response it realizes,
-    every order's realization, and where the validation record came from."""
+    every order's realization, the records (as given) and where the validation record came from."""
 
     model: StateSpaceModel
     impulse: ImpulseResponse
     path: list[KernelStep]
     selected_index: int
+    estimation: IOData
+    validation: IOData
     validation_source: str
 
     @property
@@ -121,16 +123,17 @@ def identify_kernel(data: IOData, validation: IOData | None = None, *, kernel: s
     D = fit.coefficients[0] if feedthrough else np.zeros((data.p, data.m))
     # the operating point the fit removed
     means = (estimation.y.mean(axis=0), estimation.u.mean(axis=0)) if center else (None, None)
-    path = []
+    path, shares = [], []
     for order in range(1, top + 1):
         A, B, C = hankel_realization(markov, order)
         model = StateSpaceModel(A, B, C, D, data.Ts, output_names=data.output_names, input_names=data.input_names,
                                 y_offset=means[0], u_offset=means[1])
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)      # an unstable realization diverges
-            path.append(KernelStep(order, model, compare(model, validation, x0).vaf))
-    selected = select_by_shares(path, lambda i: error_shares(validation.y, compare(path[i].model, validation, x0).yhat),
-                                PAIRED_Z)
+            simulated = compare(model, validation, x0)
+            shares.append(error_shares(validation.y, simulated.yhat))
+        path.append(KernelStep(order, model, simulated.vaf))
+    selected = select_by_shares(path, shares.__getitem__, PAIRED_Z)
     chosen = path[selected].model
     directions = [_direction(fit, j, column) for j, factor in enumerate(fit.cov_factors) for column in factor.T]
     info = {"method": "kernel", "kernel": kernel, "impulse_lags": len(fit.lags),
@@ -140,7 +143,8 @@ def identify_kernel(data: IOData, validation: IOData | None = None, *, kernel: s
                             input_names=data.input_names, y_offset=means[0], u_offset=means[1], info=info,
                             cov_factor=realization_covariance(markov, chosen.n, directions, feedthrough))
     path[selected] = KernelStep(path[selected].order, model, path[selected].vaf)
-    return KernelResult(model, fit, path, selected, source)
+    return KernelResult(model, fit, path, selected, estimation=estimation, validation=validation,
+                        validation_source=source)
 
 
 def _direction(fit: ImpulseResponse, j: int, column: np.ndarray) -> np.ndarray:

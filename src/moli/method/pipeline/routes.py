@@ -42,4 +42,5 @@ def handed_over(estimation: IOData, validation: IOData, source: str, options: Id
     result = identify_kernel(estimation, validation, nmax=options.nmax, x0=options.x0, center=options.center,
                              feedthrough=options.feedthrough is True)
     result.validation_source = source
+    result.model.info["options"] = options.to_dict()      # as every identification records what made it
     return result
