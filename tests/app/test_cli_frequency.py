@@ -76,6 +76,14 @@ def test_the_model_file_records_options_source_and_warnings(fitted):
     assert any("real and imaginary parts" in message for message in info["warnings"])
 
 
+def test_info_describes_the_model_without_an_input_hold_it_never_had(fitted):
+    # a model of an FRF saw no samples: "inputs between samples" would say nothing true of it
+    _, run_folder, _ = fitted
+    shown = run("info", str(run_folder / "model.json"))
+    assert shown.exit_code == 0 and "continuous-time state-space model: n = 4" in shown.output
+    assert "inputs between samples" not in shown.output
+
+
 def test_the_saved_options_rerun_the_fit(fitted, tmp_path):
     table, run_folder, _ = fitted
     done = run("fit", str(table), "--frequency", "--outputs", "disp,accel", "--options", str(run_folder / "model.json"),

@@ -46,8 +46,9 @@ def describe(model: LinearModel) -> str:
     lines = [head, f"outputs: {', '.join(map(console_text, model.output_names))}",
              f"inputs: {', '.join(map(console_text, model.input_names))}"]
     if model.is_continuous:
-        held = {"zoh": "held", "foh": "linear"}[model.input_hold]
-        lines.append(f"inputs between samples: {held} ({model.input_hold})")
+        if not str(model.info.get("method", "")).startswith("frequency"):   # a model of an FRF saw no samples
+            held = {"zoh": "held", "foh": "linear"}[model.input_hold]
+            lines.append(f"inputs between samples: {held} ({model.input_hold})")
         lines += _continuous_poles(model)
     else:
         lines += _sampled_structure(model)
