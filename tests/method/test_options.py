@@ -25,6 +25,7 @@ BAD = {
     "s": ("2", 1.0),
     "seed": (1.5, -1),
     "output_filters": (1, None),
+    "screen_lists": (1, None),
     "feedthrough": (1, "yes"),
     "max_radius": ([1.0], 1.5),
     "criterion_x0": (0, "zeros"),

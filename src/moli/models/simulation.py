@@ -134,16 +134,33 @@ def free_response(A: np.ndarray, C: np.ndarray, N: int, negligible: float | None
     largest entry, so that a long record does not simulate (nor later factor) samples
     that hold nothing but round-off, or subnormal numbers.
     """
-    n = A.shape[0]
     K = N if negligible is None else min(N, DECAY_START)
     while True:
-        y = simulate_batch(
-            np.broadcast_to(A, (n, n, n)), np.zeros((n, n, 1)), np.broadcast_to(C, (n,) + C.shape),
-            np.zeros((K, 1)), x0=np.eye(n),
-        ).transpose(1, 2, 0)
+        y = _powers_response(A, C, K)
         if K == N or np.max(np.abs(y[-1])) <= negligible * np.max(np.abs(y)):
             return y
         K = min(2 * K, N)
+
+
+def _powers_response(A: np.ndarray, C: np.ndarray, N: int) -> np.ndarray:
+    """``C A^k``, k < N, shape (N, p, n): ``C A^i`` for the ``L`` samples of a block times ``A^(bL)``.
+
+    One model's powers, block by block (``A^((b+1)L) = A^(bL) A^L`` by one product each, not
+    by squaring, for the non-normal forms' sake as in :func:`_block_states`): simulating
+    the ``n`` unit starts as a batch of ``n`` models repeated each power ``n`` times.
+    """
+    n, p = A.shape[0], C.shape[0]
+    L = _block_length(N)
+    nb = -(-N // L)
+    out = np.empty((nb, L * p, n))
+    with np.errstate(all="ignore"):
+        powers = _powers(A[None], L)[:, 0]                                   # (L + 1, n, n)
+        within = (C @ powers[:L]).reshape(L * p, n)                          # C A^i, i < L
+        start = np.eye(n)
+        for b in range(nb):
+            np.matmul(within, start, out=out[b])
+            start = start @ powers[L]
+    return out.reshape(nb * L, p, n)[:N]
 
 
 def state_responses(A: np.ndarray, C: np.ndarray, signals: np.ndarray) -> Iterator[tuple[int, np.ndarray]]:
@@ -176,12 +193,17 @@ def state_responses(A: np.ndarray, C: np.ndarray, signals: np.ndarray) -> Iterat
         powers = _powers(A[None], L)[:, 0]                                       # (L + 1, n, n)
         markov = C @ powers[:L]                                                  # (L, p, n): C A^i
         toeplitz = _block_toeplitz(markov.reshape(L, 1, p * n, 1))[0]            # (L, L p n)
-        # X_{b+1} = A^L X_b + sum_j v(bL + j) A^(L-1-j): each column of X, of each signal,
-        # is a state of its own under A^L (k n of them, driven by the columns of the sums)
+        # X_{b+1} = A^L X_b + sum_j v(bL + j) A^(L-1-j), for each signal
         drives = (blocks @ powers[L - 1 :: -1].reshape(L, n * n)).reshape(k, nb, n, n)
-        columns = np.ascontiguousarray(drives.transpose(0, 3, 1, 2)).reshape(k * n, nb, n)
-        states = _block_states(np.broadcast_to(powers[L], (k * n, n, n)), columns, None, k * n, n)
-        states = states.reshape(k, n, nb, n).transpose(0, 2, 3, 1)            # (k, nb, n, n): X_b
+        # every signal's X side by side, (n, k n): one product by A^L per block for all of them
+        drive_rows = list(np.ascontiguousarray(drives.transpose(1, 2, 0, 3)).reshape(nb, n, k * n))
+        stacked = np.empty((nb, n, k * n))
+        stacked[0] = 0.0
+        blocks_x = list(stacked)
+        for b in range(nb - 1):
+            np.matmul(powers[L], blocks_x[b], out=blocks_x[b + 1])
+            blocks_x[b + 1] += drive_rows[b]
+        states = np.ascontiguousarray(stacked.reshape(nb, n, k, n).transpose(2, 0, 1, 3))   # (k, nb, n, n): X_b
         observability = markov.reshape(L * p, n)
 
         def responses() -> Iterator[tuple[int, np.ndarray]]:

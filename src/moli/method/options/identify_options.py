@@ -86,6 +86,10 @@ class IdentifyOptions:
         Seed of the randomized filter search.
     output_filters : bool, default True
         Re-tune each output's filter cutoff of every path model on J (docs/method.md §11).
+    screen_lists : bool, default False
+        Rank the greedy step's candidate lists by J at the filter of the list they raise
+        (one least squares each) and tune the filter of the best one only, instead of tuning
+        every candidate (docs/method.md §6, "Screened steps"; the fast preset's).
     feedthrough : {True, False, "auto"}, default "auto"
         Direct feedthrough ``D``; "auto" keeps it per output where a nested F-test on
         the estimation data finds it significant (docs/method.md §8).
@@ -197,6 +201,7 @@ class IdentifyOptions:
     s: float = 2.0
     seed: int = 0
     output_filters: bool = True
+    screen_lists: bool = False
     feedthrough: bool | str = "auto"
     max_radius: float | str | None = 1.0
     criterion_x0: str = "zero"
@@ -242,6 +247,7 @@ class IdentifyOptions:
             "s": check_number("s", self.s, "a number > 1", lambda s: s > 1),
             "seed": check_integer("seed", self.seed, 0),
             "output_filters": check_flag("output_filters", self.output_filters),
+            "screen_lists": check_flag("screen_lists", self.screen_lists),
             "feedthrough": check_choice("feedthrough", self.feedthrough, FEEDTHROUGH_CHOICES),
             "max_radius": radius,
             "criterion_x0": check_choice("criterion_x0", self.criterion_x0, X0_CHOICES),

@@ -26,13 +26,12 @@ from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
-import scipy.linalg
 
 from ...data.iodata import IOData
 from ...errors import DataError, OptionError
+from .damped_steps import Linearization
 from .observer_form import observer_form
 from .output_error import OutputErrorProblem
-from ...numerics.triangular import column_norms, tall_factor
 from ...models.delays import shift_inputs
 from ...models.statespace import StateSpaceModel
 
@@ -201,7 +200,7 @@ class RefinementStart:
             residual = problem.residual(yhat)
         self.theta, self.yhat, self.residual = theta, yhat, residual
         self.cost = float(residual @ residual)
-        self._linearized: tuple[np.ndarray, np.ndarray | None] | None = None
+        self._linearized: Linearization | None = None
 
     def make_problem(self, model: StateSpaceModel, u: np.ndarray, data: IOData) -> tuple[OutputErrorProblem, np.ndarray]:
         """The problem refined and its parameters at the start (initial states zero)."""
@@ -221,22 +220,13 @@ class RefinementStart:
             A, B, C, F = model.A, model.B, model.C, model.D
         return model.with_matrices(A, B, C, F, info, model.divisors)
 
-    def linearize(self, theta: np.ndarray, yhat: np.ndarray, residual: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
-        """The Jacobian's column norms and the triangular factor ``T`` of ``[jac, residual]``
-        (None where either is not finite), once at the start for every ridge.
-
-        ``|jac s - residual| = |T[:, :-1] s - T[:, -1]|``: each damping tried solves a
-        problem of the parameters' size instead of the record's.
-        """
+    def linearize(self, theta: np.ndarray, yhat: np.ndarray, residual: np.ndarray) -> Linearization:
+        """The Jacobian and residual at ``theta`` reduced to what the damped steps solve
+        (:class:`moli.method.refinement.damped_steps.Linearization`), once at the start for every ridge."""
         at_start = theta is self.theta
         if at_start and self._linearized is not None:
             return self._linearized
-        augmented = self.problem.jacobian(theta, yhat, residual)
-        jac = augmented[:, :-1]
-        norms = column_norms(jac)
-        norms[norms == 0] = 1.0
-        finite = bool(np.all(np.isfinite(jac)) and np.all(np.isfinite(residual)))
-        linearized = norms, (tall_factor(augmented) if finite else None)
+        linearized = Linearization(self.problem.jacobian(theta, yhat, residual), DAMPING_FLOOR)
         if at_start:
             self._linearized = linearized
         return linearized
@@ -256,23 +246,26 @@ class RefinementStart:
         cost = cost_start = self.cost
         accepted = rejected = 0
         while self.stable and accepted < iterations:
-            norms, reduced = self.linearize(theta, yhat, residual)
+            linearized = self.linearize(theta, yhat, residual)
+            norms = linearized.norms
             if scale is None:
                 scale = norms.copy()
                 if self.fit_x0:
                     scale[-problem.x0_size :] = 0.0     # x0 is a nuisance parameter: not penalised
-            if reduced is None:
+            if not linearized.finite:
                 break                           # nothing sound to step along: keep what we have
             improved = False
             while damping < 1e8:
                 # solved for the step in units of each column's norm: the parameters'
                 # scales (the record's units) then leave the solution unchanged
-                rows = [reduced[:, :-1] / norms, np.sqrt(damping) * np.eye(theta.size)]
-                rhs = [reduced[:, -1], np.zeros(theta.size)]
                 if ridge > 0:
-                    rows.append(np.diag(penalty * scale / norms))
-                    rhs.append(-penalty * scale * (theta - theta0))
-                step = _damped_solution(np.vstack(rows), np.concatenate(rhs)) / norms
+                    scaled = linearized.step(damping, penalty * scale / norms, -penalty * scale * (theta - theta0))
+                else:
+                    scaled = linearized.step(damping)
+                if scaled is None:
+                    damping *= 10
+                    continue
+                step = scaled / norms
                 trial = theta + step
                 if problem.radius(trial) >= self.max_radius:   # refused before it is simulated
                     rejected += 1
@@ -351,16 +344,3 @@ def polish(model: StateSpaceModel, data: IOData, max_radius: float = MAX_RADIUS)
     result.model.info.update(refine_iterations=info["refine_iterations"] + result.iterations,
                              refine_cost_start=info["refine_cost_start"], refine_polished=True)
     return result.model
-
-
-def _damped_solution(matrix: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """Least-squares solution of a damped step's problem, by QR.
-
-    Its columns have norm at most one and its damping rows ``sqrt(damping) I`` keep its
-    smallest singular value at ``sqrt(damping)`` or above (at least 3e-5: the damping
-    stays at 1e-9 or more), so the triangular factor is regular and a QR gives the
-    solution an SVD would, at a fraction of the cost.
-    """
-    k = matrix.shape[1]
-    factor = tall_factor(np.column_stack([matrix, rhs]))
-    return scipy.linalg.solve_triangular(factor[:k, :k], factor[:k, k])

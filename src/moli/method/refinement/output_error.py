@@ -126,11 +126,8 @@ class OutputErrorProblem:
                     if jj == j:                         # dC x = H e_i (C x)_j, and through D
                         direct = np.outer(yx[a:b, j], H[:, i])
                         rows[:, :, at_g + q] = (direct + np.einsum("tpa,a->tp", S_c, form.D @ H[:, i])) * w
-                S_c *= w[:, None]                       # in place: each signal's responses are its own array
-                if c < m:                               # B[a, c]: input u_c into state a
-                    rows[:, :, n * p + c : at_g : m] = S_c
-                else:                                   # D[a, j]: signal yhat_j into state a
-                    rows[:, :, j : n * p : p] = S_c
+                # weighted as written: B[a, c] (input u_c into state a), or D[a, j] (signal yhat_j into state a)
+                np.multiply(S_c, w[:, None], out=rows[:, :, n * p + c : at_g : m] if c < m else rows[:, :, j : n * p : p])
             if self.fit_x0:
                 at_x0 = count - self.x0_size + segment * n
                 rows[:, :, at_x0 : at_x0 + n] = free_response(A, C, b - a) * w[:, None]

@@ -17,7 +17,7 @@ from ..options.identify_options import IdentifyOptions
 from ..structure.indices import Indices, compositions, raised
 from ..tuning.output_filters import tune_output_cutoffs
 from ..least_squares.shared_factors import RegressionCache
-from ..tuning.criterion import FilterScorer
+from ..tuning.criterion import FilterScorer, score_lists
 from ..tuning.barycenter import tune_filters
 from ...validation.comparison import compare
 
@@ -113,6 +113,9 @@ class StructureSearch:
         the greedy path keep the shared filter.
     regularization : {"none", "gcv"}, default "none"
         Least squares of every estimate (see :class:`moli.method.least_squares.shared_factors.RegressionCache`).
+    screen_lists : bool, default False
+        The greedy step tunes only the candidate list whose J is lowest at the filter of the
+        list it raises (:meth:`screened`).
     """
 
     def __init__(
@@ -120,8 +123,10 @@ class StructureSearch:
         iterations: int = 5, s: float = 2.0, *, seed: int = 0, x0: str = "zero",
         criterion_x0: str = "zero", feedthrough: bool = False, max_radius: float | None = None,
         trend_degree: int = 0, output_filters: bool = False, regularization: str = "none",
+        screen_lists: bool = False,
     ) -> None:
         self.output_filters = output_filters
+        self.screen_lists = screen_lists
         self.max_radius = max_radius
         self.trend_degree = trend_degree
         self.criterion_x0 = criterion_x0
@@ -148,7 +153,7 @@ class StructureSearch:
         return cls(estimation, validation, omega, options.tuning, options.iterations, options.s, seed=options.seed,
                    x0=options.x0, criterion_x0=options.criterion_x0, feedthrough=options.feedthrough,
                    max_radius=max_radius, trend_degree=options.trend_degree, output_filters=options.output_filters,
-                   regularization=options.regularization)
+                   regularization=options.regularization, screen_lists=options.screen_lists)
 
     def feasible(self, indices: Indices) -> bool:
         """Whether the estimation record has enough samples for this list."""
@@ -186,6 +191,17 @@ class StructureSearch:
                 step.vaf = compare(step.model, self.validation, self.x0).vaf
                 step.seconds += time.perf_counter() - started
         return steps
+
+    def screened(self, lists: Sequence[Indices], eta: np.ndarray) -> Indices:
+        """The list of lowest J at the one filter ``eta`` (each list's least squares and simulation
+        at that filter, scored together), without tuning any of them.
+
+        The greedy step compares lists one index apart, raised from the same list: their best
+        filters are near the one that list was tuned to, and the ranking at that filter picks
+        the list the full tuning would on most steps at a fraction of its cost (docs/method.md §6).
+        """
+        scored = score_lists([self._scorer(indices) for indices in lists], [np.asarray(eta, float)[None]] * len(lists))
+        return lists[int(np.argmin([costs[0] for costs, _ in scored]))]
 
     def _scorer(self, indices: Indices) -> FilterScorer:
         return FilterScorer(
@@ -291,10 +307,13 @@ def path_until_interrupted(search: StructureSearch, nmax: int,
 
 def next_step(search: StructureSearch, step: PathStep) -> PathStep | None:
     """The greedy step from ``step``: of the lists one index above it, the one of lowest J,
-    validated; None where the record allows none of them."""
+    validated (with ``screen_lists``, of lowest J at ``step``'s filter); None where the record
+    allows none of them."""
     candidates = [c for c in raised(step.indices) if search.feasible(c)]
     if not candidates:
         return None
+    if search.screen_lists and len(candidates) > 1:
+        return search.fit(search.screened(candidates, step.eta))
     steps = search.fit_many(candidates, validate=False)
     return search.fit(min(steps, key=lambda st: st.J).indices)
 
