@@ -89,7 +89,7 @@ class IdentifyOptions:
     screen_lists : bool, default False
         Rank the greedy step's candidate lists by J at the filter of the list they raise
         (one least squares each) and tune the filter of the best one only, instead of tuning
-        every candidate (docs/method.md §6, "Screened steps"; the fast preset's).
+        every candidate (docs/method.md §5, "Screened steps").
     feedthrough : {True, False, "auto"}, default "auto"
         Direct feedthrough ``D``; "auto" keeps it per output where a nested F-test on
         the estimation data finds it significant (docs/method.md §8).

@@ -198,7 +198,7 @@ class StructureSearch:
 
         The greedy step compares lists one index apart, raised from the same list: their best
         filters are near the one that list was tuned to, and the ranking at that filter picks
-        the list the full tuning would on most steps at a fraction of its cost (docs/method.md §6).
+        the list the full tuning would on most steps at a fraction of its cost (docs/method.md §5).
         """
         scored = score_lists([self._scorer(indices) for indices in lists], [np.asarray(eta, float)[None]] * len(lists))
         return lists[int(np.argmin([costs[0] for costs, _ in scored]))]

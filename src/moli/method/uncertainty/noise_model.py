@@ -23,7 +23,7 @@ import scipy.linalg
 
 from ...data.iodata import IOData, longest_segment
 from ...errors import DataError
-from ...models.simulation import free_response, simulate_batch
+from ...models.simulation import free_response, simulate_batch, state_responses
 from ...models.statespace import StateSpaceModel
 from ...validation.prediction import deviations, predicted_deviations
 from ...validation.whitening import fit_ar
@@ -57,8 +57,8 @@ def _gain_regression(F: np.ndarray, C: np.ndarray, target: np.ndarray, eps: np.n
     """Least-squares ``K`` in ``target[t] = C s[t] + v[t]``, ``s[t+1] = F s[t] + K ε[t]``.
 
     ``s[0]`` is unknown too. ``C s[t]`` is ``sum_ij K_ij g_ij[t] + C F^t s[0]``, where
-    ``g_ij`` is the output of ``(F, e_i, C)`` driven by ``ε_j``: the columns are ``n p``
-    batched simulations and the free responses. Rows are weighted by the inverse
+    ``g_ij`` is the output of ``(F, e_i, C)`` driven by ``ε_j``: the columns are the state
+    responses of each ``ε_j`` (:func:`moli.models.simulation.state_responses`) and the free responses. Rows are weighted by the inverse
     Cholesky factor ``L^-1`` of the covariance of ``ε``, so that every output counts by
     its noise level; the weight enters through ``L^-1 C``, so the columns are built
     weighted.
@@ -71,13 +71,13 @@ def _gain_regression(F: np.ndarray, C: np.ndarray, target: np.ndarray, eps: np.n
         target = scipy.linalg.solve_triangular(factor, target.T, lower=True).T
     except np.linalg.LinAlgError:
         pass  # innovations of rank < p (a noise-free output): unweighted rows
-    unit = np.eye(n * p).reshape(n * p, n, p)             # model (i, j) has B = e_i e_j^T
     # [columns | target] filled in place: the record-long matrix is held once, stored
     # column by column (the column norms then sum each contiguous column)
     design = np.empty((N * p, n * p + n + 1), order="F")
     rows = design.reshape(N, p, -1)                # a view: sample, output, column
-    rows[:, :, : n * p] = simulate_batch(np.broadcast_to(F, (n * p, n, n)), unit,
-                                         np.broadcast_to(C, (n * p, p, n)), eps).transpose(1, 2, 0)
+    # column i p + j: the response to ε_j injected into state i (B = e_i e_j^T), every state's at once
+    for j, through_states in state_responses(F, C, eps):
+        rows[:, :, j : n * p : p] = through_states
     rows[:, :, n * p : n * p + n] = free_response(F, C, N)
     rows[:, :, -1] = target
     norms = column_norms(design)
