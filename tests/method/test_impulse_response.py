@@ -225,10 +225,10 @@ def test_a_kernel_model_goes_through_save_info_validate_and_a_fleet(tmp_path):
     scored = runner.invoke(cli, ["validate", str(tmp_path / "kernel.json"), str(tmp_path / "plant.csv"),
                                  "--inputs", "u1,u2,u3", "--outputs", "y1,y2,y3", "--out", str(tmp_path / "v")])
     assert scored.exit_code == 0, scored.output
-    # the command line has no kernel report yet: its options are refused in one line, before any work
-    refused = runner.invoke(cli, ["fit", str(tmp_path / "plant.csv"), "--inputs", "u1,u2,u3", "--outputs",
-                                  "y1,y2,y3", "--options", str(tmp_path / "kernel.json")])
-    assert refused.exit_code == 2 and "method='kernel'" in refused.output
+    # fit-many does not run the kernel method: its options are refused in one line, before any work
+    refused = runner.invoke(cli, ["fit-many", str(tmp_path / "plant.csv"), "--inputs", "u1,u2,u3", "--outputs",
+                                  "y1,y2,y3", "--options", str(tmp_path / "kernel.json"), "--out", str(tmp_path / "f")])
+    assert refused.exit_code == 2 and "method='kernel'" in refused.output and not (tmp_path / "f").exists()
     # a fleet in Python: each record's kernel model and its fit on the held-out tail
     fleet = moli.identify_many({"a": data, "b": moli.example_data(N=300, seed=2)},
                                moli.IdentifyOptions(method="kernel", nmax=6))
