@@ -191,6 +191,13 @@ def test_identify_kernel_refuses_bad_input():
         moli.identify_kernel(data, _record(100, 13, m=2))
     with pytest.raises(moli.OptionError, match="x0"):
         moli.identify_kernel(data, x0="random")
+    with pytest.raises(moli.OptionError, match="kernel must be one of"):
+        moli.identify_kernel(data, kernel="gauss")
+    # the estimation part is the first 140 of the 200 samples: 140 lags reach beyond it
+    with pytest.raises(moli.DataError, match=r"length = 140 lags reach beyond the longest segment \(140 samples\)"):
+        moli.identify_kernel(data, length=140)
+    with pytest.raises(moli.DataError, match="input u1 never changes"):
+        moli.identify_kernel(moli.IOData(data.y, np.full(data.N, 2.0)))
 
 
 def test_identify_hands_the_kernel_method_over_and_refuses_what_it_would_ignore():
