@@ -309,8 +309,8 @@ def write_report(
         figures_html[name] = (f"<figure>{embedded_image(png, name)}<figcaption class='note'>{caption}"
                               "</figcaption></figure>")
     residuals = "" if analysis is None else residual_section(analysis, figures_html.pop("residuals"))
-    regularized = impulse_section(impulse, [figures_html.pop(name) for name in IMPULSE_FIGURES if name in figures_html],
-                                  result.estimation.N)
+    regularized = impulse_section(impulse, [figures_html.pop(name) for name in IMPULSE_FIGURES
+                                            if name in figures_html], result.estimation.N)
     interrupted = (f"<p><b>Interrupted after the path: skipped {html.escape(', '.join(result.skipped))}; "
                    "the model is the best complete one before them.</b></p>" if result.skipped else
                    "<p><b>The search was interrupted; the path below is partial.</b></p>"
