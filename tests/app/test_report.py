@@ -39,7 +39,7 @@ def test_report_files_exist_and_html_embeds_every_png(written, result):
     page, folder, data_file = written
     embedded = re.findall(r'src="data:image/png;base64,([^"]+)"', page)
     names = ["vaf_by_order", "validation", "poles", "step_responses", "magnitude", "singular_values",
-             "residuals"]
+             "regularized_impulse", "regularized_step", "residuals"]
     assert len(embedded) == len(names)
     for name, data in zip(names, embedded):
         png = (folder / f"{name}.png").read_bytes()

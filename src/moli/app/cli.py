@@ -28,6 +28,7 @@ from ..errors import DataError, MoliError, OptionError
 from ..method.identification import IdentificationResult
 from ..method.closed_loop.reference_projection import without_reference
 from ..method.options import PRESETS, IdentifyOptions
+from ..method.options.choices import METHODS
 from ..method.search.greedy_path import PathStep, StructureSearch, exhaustive
 from ..models.storage import load_model
 from ..systems.plant import example_data
@@ -42,6 +43,7 @@ from .reading import RunWarnings, names, read_records, reading_options
 from .console import PARTIAL, USAGE_ERROR, InterruptHold, interrupted
 from .continuous_fit import fit_continuous
 from .frequency_fit import fit_frequency
+from .kernel_fit import fit_kernel
 from .describe import describe
 from .search_run import held_out_search
 from .report import write_report
@@ -83,14 +85,16 @@ class _Group(click.Group):
             ctx.exit(interrupted(None if written is None else console_text(written)))
 
 
-def options_from_flags(options_file: Path | None, preset: str | None, **flags: Any) -> IdentifyOptions:
+def options_from_flags(options_file: Path | None, preset: str | None, *, runs_kernel: bool = False,
+                       **flags: Any) -> IdentifyOptions:
     """The one place where command-line flags become :class:`IdentifyOptions`.
 
     ``--options FILE`` (a JSON options dict, e.g. ``model.json``'s ``info.options``)
     or ``--preset`` gives the base; every flag given on the command line (not None)
     then replaces its field. A saved model's options keep the model's time domain: a
     continuous model's run in continuous time (``time`` is set from the file's own
-    ``time``), and a file whose options say the other domain is refused.
+    ``time``), and a file whose options say the other domain is refused. A file asking for
+    ``method='kernel'`` is refused unless the command runs it (``runs_kernel``).
     """
     given = {name: value for name, value in flags.items() if value is not None}
     if options_file is None:
@@ -106,9 +110,9 @@ def options_from_flags(options_file: Path | None, preset: str | None, **flags: A
     if isinstance(content, dict) and content.get("format") == "moli-model":
         content = _model_options(content, options_file)
     options = IdentifyOptions.from_dict(content).replace(**given)
-    if options.method == "kernel":      # its result has no path to report or fleet row to write yet
-        raise OptionError(f"--options: {options_file} asks for method='kernel', which the command line does not "
-                          "run yet: use moli.identify(data, method='kernel') in Python, or method 'moli'")
+    if options.method == "kernel" and not runs_kernel:
+        raise OptionError(f"--options: {options_file} asks for method='kernel', which only moli fit of a time "
+                          "record runs: use moli fit DATA --method kernel, or method 'moli'")
     return options
 
 
@@ -259,6 +263,8 @@ def demo(out_dir: Path, nmax: int, all_lists: bool, force: bool) -> None:
               help="A record taken under feedback: identify it as open-loop, by the two-stage method "
                    "(needs --reference) or by the direct prediction-error method [default: two-stage "
                    "with --reference, else direct where an input is a controller's output, else open].")
+@click.option("--method", type=click.Choice(METHODS), help="The MOLI path, or the realization of a regularized "
+              "(TC kernel) impulse response, order chosen on validation (docs/regularization.md) [default: moli].")
 @click.option("--frequency", is_flag=True, help="DATA is a measured frequency response (a CSV of "
               "'<output>/<input> <part>' columns, docs/frequency.md): fit a model to it.")
 @_FORCE
@@ -268,7 +274,7 @@ def fit(*, data_files: tuple[Path, ...], inputs: str | None, outputs: str | None
         order: int | None, fraction: float, seed: int | None, preset: str | None, x0: str | None,
         outliers: str, model_path: Path | None, report_dir: Path | None, all_lists: bool,
         continuous: bool, input_hold: str | None, reference: str | None, closed_loop: str | None,
-        frequency: bool, force: bool, **reading: Any) -> None:
+        method: str | None, frequency: bool, force: bool, **reading: Any) -> None:
     """Identify a model from a data file, several runs of one plant, or a DaISy set.
 
     DATA is a text table (.csv .tsv .txt), an Excel workbook (.xlsx), Parquet, .npz or
@@ -289,7 +295,8 @@ def fit(*, data_files: tuple[Path, ...], inputs: str | None, outputs: str | None
                               "logged set-points, columns apart from the plant's inputs and outputs")
     options = options_from_flags(options_file, preset, nmax=nmax, order=order, seed=seed, x0=x0,
                                  time="continuous" if continuous else None, input_hold=input_hold,
-                                 reference=names(reference), closed_loop=closed_loop)
+                                 reference=names(reference), closed_loop=closed_loop, method=method,
+                                 runs_kernel=True)
     stems = [daisy] if daisy is not None else [path.stem for path in data_files]
     read = [*data_files, *([options_file] if options_file is not None else [])]
     model_path, report_dir = fit_outputs(model_path, report_dir, run_folder("fit", stems), force, read)
@@ -313,13 +320,16 @@ def fit(*, data_files: tuple[Path, ...], inputs: str | None, outputs: str | None
     if removed:
         data = remove_outliers(data)
         click.echo(f"outliers replaced by linear interpolation: {removed}")
-    if options.time == "continuous" and all_lists:
-        raise OptionError("--all-lists is for the discrete search: leave it out with --continuous")
+    if all_lists and (options.time == "continuous" or options.method == "kernel"):
+        raise OptionError("--all-lists is for the sampled MOLI search: leave it out with --continuous, --method kernel")
     with InterruptHold() as hold:  # from the search's return to the model on disk, Ctrl-C waits
+        facts = {"source": source, "outliers_removed": removed}
         if options.time == "continuous":
             code = fit_continuous(data, fraction, options, noted, model_path=model_path, report_dir=report_dir,
-                                  data_files=data_files, facts={"source": source, "outliers_removed": removed},
-                                  hold=hold)
+                                  data_files=data_files, facts=facts, hold=hold)
+        elif options.method == "kernel":
+            code = fit_kernel(data, fraction, options, noted, model_path=model_path, report_dir=report_dir,
+                              data_files=data_files, facts=facts, hold=hold)
         else:
             result = _identify(data, fraction, options, noted, str(data_files[-1]) if len(data_files) > 1 else None,
                                hold)

@@ -17,6 +17,7 @@ import numpy as np
 
 from . import figures, frequency_figures
 from .figure_files import save_figure
+from .impulse_section import IMPULSE_FIGURES, impulse_figures, impulse_section, regularized_fit
 from .._version import __version__
 from ..data.atomic_files import write_atomic
 from ..data.display import period_text, report_name
@@ -299,12 +300,17 @@ def write_report(
                               f"Residual correlations on the validation record with their "
                               f"{analysis.confidence:.0%} bands: autocorrelation, then the "
                               "cross-correlation with each input (positive lags: past inputs).")
+    # what the record says of the responses, whatever the model's order
+    impulse = regularized_fit(result.estimation)
+    drawn.update(impulse_figures(impulse))
     figures_html = {}
     for name, (fig, caption) in drawn.items():
         png = save_figure(fig, out / f"{name}.png")
         figures_html[name] = (f"<figure>{embedded_image(png, name)}<figcaption class='note'>{caption}"
                               "</figcaption></figure>")
     residuals = "" if analysis is None else residual_section(analysis, figures_html.pop("residuals"))
+    regularized = impulse_section(impulse, [figures_html.pop(name) for name in IMPULSE_FIGURES
+                                            if name in figures_html], result.estimation.N)
     interrupted = (f"<p><b>Interrupted after the path: skipped {html.escape(', '.join(result.skipped))}; "
                    "the model is the best complete one before them.</b></p>" if result.skipped else
                    "<p><b>The search was interrupted; the path below is partial.</b></p>"
@@ -328,6 +334,7 @@ record, simulation, percent. Selected: {html.escape(result.selection)}.</p>
 {path_table(result)}
 <h2>Figures</h2>
 {''.join(figures_html.values())}
+{regularized}
 {residuals}
 <h2>Identification options</h2>
 <p class="note">Every field of IdentifyOptions (docs/method.md); the saved model records

@@ -16,6 +16,7 @@ so one evaluation costs one QR of ``d + 1`` columns, never an ``N x N`` matrix.
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,8 +27,10 @@ from .kernels import ARTANH_BOUND, LOGIT_BOUND, hyperparameter_count, kernel_mat
 
 __all__ = ["OutputFit", "fit_output", "neg_log_likelihood"]
 
-# Decays per sample tried, one for every input, before the search: the best of them starts it.
+# Decays per sample and shares of the output's variance left to the noise tried before the search
+# (every pair of them, each at its best overall scale): the best of them starts it.
 START_DECAYS = (0.3, 0.6, 0.8, 0.9, 0.95, 0.98)
+START_NOISE_SHARES = (0.5, 0.2, 0.05, 0.01)
 # log c and log sigma^2 are searched within this many nepers of their start.
 LOG_RANGE = 25.0
 # The search ends when a step lowers -2 log p(y) by less than this share of it: 1e-12 of values
@@ -65,13 +68,19 @@ def _posterior_factor(factor: FirFactor, j: int, L: np.ndarray, sigma: float) ->
 
 def neg_log_likelihood(factor: FirFactor, j: int, L: np.ndarray, sigma2: float) -> float:
     """``-2 log p(y_j)`` up to a constant, for the prior square root ``L`` and noise variance ``sigma2``."""
+    quadratic, log_det = _likelihood_terms(factor, j, L, sigma2)
+    return quadratic + log_det
+
+
+def _likelihood_terms(factor: FirFactor, j: int, L: np.ndarray, sigma2: float) -> tuple[float, float]:
+    """``y^T Sigma^-1 y`` and ``log det Sigma`` (both inf where ``Sigma`` is singular)."""
     d = L.shape[0]
     Q = _posterior_factor(factor, j, L, np.sqrt(sigma2))
     diagonal = np.abs(np.diag(Q)[:d])
     if np.any(diagonal == 0) or not np.isfinite(Q).all():
-        return np.inf
-    return float((factor.r3[j] ** 2 + Q[d, d] ** 2) / sigma2 + (factor.rows - d) * np.log(sigma2)
-                 + 2.0 * np.sum(np.log(diagonal)))
+        return np.inf, np.inf
+    return (float((factor.r3[j] ** 2 + Q[d, d] ** 2) / sigma2),
+            float((factor.rows - d) * np.log(sigma2) + 2.0 * np.sum(np.log(diagonal))))
 
 
 def _split(kind: str, m: int, x: np.ndarray) -> tuple[list[np.ndarray], float]:
@@ -102,21 +111,20 @@ def fit_output(factor: FirFactor, j: int, kind: str, lags: np.ndarray, scales: n
         sigma2 = factor.r3[j] ** 2 / (factor.rows - d)
         inverse = scipy.linalg.solve_triangular(factor.R1, np.eye(d))
         return OutputFit(coefficients, np.sqrt(sigma2) * inverse, sigma2, (), np.nan)
-    # the output's variance about zero sets the starts: noise at half of it, each input's
-    # gain scale so that the prior's output variance is the other half
+    # the output's variance about zero sets the starts: a share of it to the noise, each input's
+    # gain scale so that the prior's output variance is the rest
     total = (np.sum(factor.r2[:, j] ** 2) + factor.r3[j] ** 2) / max(factor.rows, 1)
     total = total if total > 0 else 1.0
     size = hyperparameter_count(kind)
     best = None
-    for decay in START_DECAYS:
+    for noise, decay in itertools.product(START_NOISE_SHARES, START_DECAYS):
         start = []
         for scale in scales:
             z = np.zeros(size)
-            z[0] = np.log(0.5 * total * (1.0 - decay) / (m * max(scale, 1e-300)))
+            z[0] = np.log((1.0 - noise) * total * (1.0 - decay) / (m * max(scale, 1e-300)))
             z[1] = np.log(decay / (1.0 - decay))
             start.append(z)
-        x = np.concatenate([*start, [np.log(0.5 * total)]])
-        value = _objective(x, factor, j, kind, lags, m)
+        x, value = _scaled_start(np.concatenate([*start, [np.log(noise * total)]]), factor, j, kind, lags)
         if best is None or value < best[1]:
             best = (x, value)
     x0 = best[0]
@@ -141,6 +149,23 @@ def fit_output(factor: FirFactor, j: int, kind: str, lags: np.ndarray, scales: n
     coefficients = L @ scipy.linalg.solve_triangular(Q1, Q[:d, d])
     cov_factor = np.sqrt(sigma2) * scipy.linalg.solve_triangular(Q1.T, L.T, lower=True).T
     return OutputFit(coefficients, cov_factor, sigma2, tuple(coordinates), float(min(found.fun, best[1])))
+
+
+def _scaled_start(x: np.ndarray, factor: FirFactor, j: int, kind: str, lags: np.ndarray) -> tuple[np.ndarray, float]:
+    """``x`` with every scale and the noise variance multiplied by the factor that fits the output
+    best, and its ``-2 log p(y_j)``: that multiplies ``Sigma`` by ``s``, so ``-2 log p`` is
+    ``q / s + N log s`` plus ``log det Sigma``, least at ``s = q / N`` (``q = y^T Sigma^-1 y``). Without
+    it the starts are ranked by how well their scale was guessed, and a record whose noise is a
+    small share of the output started in the basin where the noise explains everything."""
+    size = hyperparameter_count(kind)
+    coordinates, sigma2 = _split(kind, (len(x) - 1) // size, x)
+    with np.errstate(all="ignore"):
+        quadratic, log_det = _likelihood_terms(factor, j, _root(kind, lags, coordinates), sigma2)
+    if not (np.isfinite(quadratic) and np.isfinite(log_det) and quadratic > 0):
+        return x, np.inf
+    scaled = x.copy()
+    scaled[0::size] += np.log(quadratic / factor.rows)      # each log c, and log sigma^2 last
+    return scaled, factor.rows * (1.0 + np.log(quadratic / factor.rows)) + log_det
 
 
 def _objective(x: np.ndarray, factor: FirFactor, j: int, kind: str, lags: np.ndarray, m: int) -> float:
