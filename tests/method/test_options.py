@@ -45,6 +45,7 @@ BAD = {
     "reference": (3, []),
     "closed_loop": (True, "indirect"),
     "method": ("ridge", None, 1),
+    "frequency_start": (1, "moli"),
 }
 
 
