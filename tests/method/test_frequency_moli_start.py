@@ -13,7 +13,6 @@ from moli.method.frequency.modal_form import matrices
 from moli.method.frequency.moli_start import moli_start, output_parameters
 from moli.method.frequency.orders import fit_domain, problem_on
 from moli.method.frequency.settings import frequency_settings
-from moli.method.structure.indices import generic_indices
 
 
 def modal_system(frequencies, dampings, p, m, seed, feedthrough=False):
@@ -144,7 +143,8 @@ def test_both_starts_keep_at_each_order_the_step_the_held_out_lines_prefer(Ts):
         assert mine.start == ("subspace" if mine.shares.sum() == theirs.shares.sum() else "moli")
     assert any(step.start == "moli" for step in both.path)
     assert all(step.start == "subspace" for step in alone.path)
-    assert both.model.info["method"].startswith(f"frequency-domain {'MOLI' if both.selected.start == 'moli' else 'subspace'}")
+    origin = "MOLI" if both.selected.start == "moli" else "subspace"
+    assert both.model.info["method"].startswith(f"frequency-domain {origin} start")
 
 
 @pytest.mark.parametrize("Ts", [None, TS], ids=["continuous", "discrete"])
