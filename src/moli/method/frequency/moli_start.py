@@ -19,9 +19,9 @@ The filter: discrete data take the time domain's root rule
 (:func:`moli.method.structure.filters.filter_divisors`) in rad per sample; continuous data the
 continuous one (:func:`moli.method.continuous.filters.unit_divisors`, built for ``wc = 1``)
 at the points divided by ``wc``, whose model's ``A`` and ``B`` are then ``wc`` times the
-unit model's. The candidates are cutoffs spread over the lines' band with the time
-domain's dampings (:func:`filter_candidates`); the order's start is the candidate whose
-model fits the held-out lines best (docs/frequency.md §2b).
+unit model's. The candidates are cutoffs spread over the lines' band at one damping
+(:func:`filter_candidates`); the order's start is the candidate whose model fits the
+held-out lines best (docs/frequency.md §2b).
 """
 
 from __future__ import annotations
@@ -44,7 +44,8 @@ from .settings import FrequencySettings
 from .subspace import LINE_BLOCK
 
 __all__ = ["LineFilter", "output_parameters", "observer_matrices", "filter_candidates", "filtered_start",
-           "moli_start", "with_moli_start", "CUTOFFS_PER_DECADE", "DAMPING", "ROOT_SPACING"]
+           "moli_start", "with_moli_start", "CUTOFFS_PER_DECADE", "DAMPING", "ROOT_SPACING",
+           "FASTEST_ANGLE"]
 
 # Cutoffs per decade of the lines' band (the continuous time grid's two, docs/continuous.md §3).
 CUTOFFS_PER_DECADE = 2
@@ -55,6 +56,9 @@ CUTOFFS_PER_DECADE = 2
 DAMPING = 0.7
 # The root spacing factor ``s`` of the filters (the time domain's default, docs/method.md §2).
 ROOT_SPACING = 2.0
+# The fastest discrete cutoff, in rad per sample: the dominant pair's angle ``wc sqrt(1 - zeta^2)``
+# then stays below the Nyquist angle pi, where the pair would merge into a double root at -1.
+FASTEST_ANGLE = 0.9 * np.pi
 
 
 @dataclass(frozen=True)
@@ -149,21 +153,18 @@ def filter_candidates(points: np.ndarray, indices: Indices, continuous: bool) ->
 
     The band is the lines' smallest to largest positive frequency in the fit domain
     (``|s|``, or the angle of ``z`` in rad per sample), :data:`CUTOFFS_PER_DECADE` cutoffs a
-    decade, at least two; a discrete cutoff stays below the Nyquist angle ``pi``.
+    decade, at least two; a discrete cutoff at most :data:`FASTEST_ANGLE`.
     """
     reach = np.abs(points) if continuous else np.abs(np.angle(points))
     positive = reach[reach > 0]
     low, high = float(positive.min()), float(positive.max())
     count = max(int(np.ceil(CUTOFFS_PER_DECADE * np.log10(high / low))) + 1, 2)
-    candidates = []
-    for wc in np.geomspace(low, high, count):
-        if continuous:
-            divisors = tuple(unit_divisors(DAMPING, indices, ROOT_SPACING)[1:])
-            candidates.append(LineFilter(divisors, float(wc)))
-        else:
-            angle = min(float(wc), 0.9 * np.pi)
-            candidates.append(LineFilter(tuple(filter_divisors(angle, DAMPING, indices, 1.0, ROOT_SPACING)), 1.0))
-    return candidates
+    cutoffs = np.geomspace(low, high, count)
+    if continuous:                  # one filter in its own time unit, at each cutoff
+        divisors = tuple(unit_divisors(DAMPING, indices, ROOT_SPACING)[1:])
+        return [LineFilter(divisors, float(wc)) for wc in cutoffs]
+    return [LineFilter(tuple(filter_divisors(min(float(wc), FASTEST_ANGLE), DAMPING, indices, 1.0, ROOT_SPACING)), 1.0)
+            for wc in cutoffs]
 
 
 def filtered_start(indices: Indices, line_filter: LineFilter, problem: FitProblem, settings: FrequencySettings,
