@@ -46,6 +46,7 @@ BAD = {
     "reference": (3, []),
     "closed_loop": (True, "indirect"),
     "method": ("ridge", None, 1),
+    "frequency_start": (1, "moli"),
 }
 
 

@@ -12,7 +12,7 @@ import time
 from typing import Any, Callable
 
 from ..data import FrequencyData, IOData
-from .frequency.identification import FrequencyResult, identify_frequency
+from .frequency import FrequencyResult, identify_frequency, refuse_frequency_options
 from .options import IdentifyOptions, options_section
 from .pipeline.finishing import checked_selection, record_of_making, refine_and_finish
 from .pipeline.interruption import Phases, post_path_phases
@@ -90,6 +90,7 @@ def identify(
     options = call_options(options, overrides)
     if isinstance(data, FrequencyData):
         return identify_frequency(data, validation, options, progress, phase)
+    refuse_frequency_options(options)
     check_hooks(data, progress, phase)
     estimation, validation, source = split_records(data, validation, options)
     nmax = options.path_end(data.p)

@@ -26,6 +26,7 @@ from ...models.statespace import StateSpaceModel
 from ..options import IdentifyOptions
 from ..selection.order_rules import select_by_shares
 from .modal_form import matrices
+from .moli_start import with_moli_start
 from .orders import FitDomain, FrequencyStep, fit_domain, fit_order, problem_on, subspace_basis
 from .refinement import covariance_factor, refine_modal
 from .settings import frequency_settings
@@ -132,8 +133,10 @@ def identify_frequency(
     orders = [settings.order] if settings.order is not None else range(1, settings.nmax + 1)
     path = []
     for order in orders:
-        step = fit_order(order, basis, problem, judged, settings, domain.continuous,
-                         refine=settings.refine in ("path", "guarded"))
+        refine = settings.refine in ("path", "guarded")
+        step = fit_order(order, basis, problem, judged, settings, domain.continuous, refine=refine)
+        if settings.moli_start:
+            step = with_moli_start(step, order, problem, judged, settings, domain.continuous, refine=refine)
         if step is not None:
             path.append(step)
             if progress is not None:
@@ -148,6 +151,7 @@ def identify_frequency(
     step = path[index]
     whole = problem_on(data, domain)
     theta, note, factor = step.theta, None, None
+    origin = "subspace" if step.start == "subspace" else "MOLI"
     refined = settings.refine != "none" and (settings.refine != "guarded" or step.refined)
     if refined:
         if phase is not None:
@@ -159,9 +163,9 @@ def identify_frequency(
         factor = covariance_factor(step.layout, theta, whole)
         note = None if factor is not None else "the refinement's Jacobian has no rank to spare beyond its gauge"
     else:
-        note = ("refine='none' keeps the subspace estimate, which is no minimum of the fit: no sandwich"
-                if settings.refine == "none" else "the held-out lines preferred the subspace start to its refinement")
-    info = {"method": "frequency-domain subspace start, weighted FRF refinement",
+        note = (f"refine='none' keeps the {origin} estimate, which is no minimum of the fit: no sandwich"
+                if settings.refine == "none" else f"the held-out lines preferred the {origin} start to its refinement")
+    info = {"method": f"frequency-domain {origin} start, weighted FRF refinement",
             "held_out_every": HOLD_OUT_EVERY, "order": step.order, "refined": refined}
     model = _physical(data, domain, matrices(step.layout, theta), factor, info)
     if not model.is_stable():          # only with max_radius=None: the refinement keeps the bound otherwise

@@ -22,7 +22,7 @@ from .settings import FrequencySettings
 from .subspace import bilinear_points, input_and_feedthrough, observability_basis, poles_and_output
 
 __all__ = ["FitDomain", "FrequencyStep", "fit_domain", "problem_on", "held_out_shares", "start_model", "fit_order",
-           "subspace_basis", "weights_of", "band_wide_order", "MAX_SHIFT_CONDITION"]
+           "modal_start", "judged_step", "subspace_basis", "weights_of", "band_wide_order", "MAX_SHIFT_CONDITION"]
 
 # A subspace model with a pole this close to z = -1 (the condition number of A_d + I) has one at
 # an infinite s: no continuous model maps to it, and the order is left out.
@@ -59,11 +59,13 @@ class FrequencyStep:
         Mean over the channel pairs' real and imaginary parts of the weighted VAF on the
         held-out lines (points).
     refined : bool
-        Whether the refinement was kept (else the subspace start).
+        Whether the refinement was kept (else the start).
     cost : float
         Weighted squared error on the estimation lines.
     shares : ndarray
         Each held-out line's squared error in points (their sum is ``100 - mean_vaf``).
+    start : str
+        Which start the model grew from: "subspace" or "moli" (docs/frequency.md §2b).
     """
 
     order: int
@@ -74,6 +76,7 @@ class FrequencyStep:
     refined: bool
     cost: float
     shares: np.ndarray
+    start: str = "subspace"
 
 
 def fit_domain(data: FrequencyData) -> FitDomain:
@@ -127,6 +130,12 @@ def start_model(basis: np.ndarray, order: int, problem: FitProblem, settings: Fr
             return None
         A, C = np.linalg.solve(shifted, A - np.eye(order)), np.linalg.solve(shifted.T, C.T).T
     B, D = input_and_feedthrough(A, C, problem.points, problem.G, problem.weights, settings.feedthrough)
+    return modal_start(A, B, C, D, problem, settings, continuous=continuous)
+
+
+def modal_start(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, problem: FitProblem,
+                settings: FrequencySettings, *, continuous: bool) -> tuple[ModalLayout, np.ndarray] | None:
+    """A start model in modal form, its unstable poles mirrored (and ``B``, ``D`` refitted) when stability is asked."""
     modal = modal_parameters(A, B, C, D, settings.feedthrough)
     if modal is None:
         return None
@@ -144,8 +153,13 @@ def fit_order(order: int, basis: np.ndarray, estimation: FitProblem, held_out: F
     """The step of ``order``: the start, refined when ``refine`` (under "guarded", kept where the held-out
     lines prefer it)."""
     start = start_model(basis, order, estimation, settings, continuous)
-    if start is None:
-        return None
+    return None if start is None else judged_step(order, start, estimation, held_out, settings, continuous,
+                                                  refine=refine)
+
+
+def judged_step(order: int, start: tuple[ModalLayout, np.ndarray], estimation: FitProblem, held_out: FitProblem,
+                settings: FrequencySettings, continuous: bool, *, refine: bool) -> FrequencyStep:
+    """The step of a start model: refined when ``refine`` (under "guarded", kept where the held-out lines prefer it)."""
     layout, theta = start
     shares = held_out_shares(layout, theta, held_out)
     fitted, refined, cost = theta, False, None

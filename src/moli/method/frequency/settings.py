@@ -6,7 +6,8 @@ the default for these data), ``order_errors`` (its standard errors), ``feedthrou
 bounds a discrete model's poles, and any number keeps a continuous model's poles in the
 left half-plane) and ``refine`` ("none": the subspace start; "selected": the start orders
 the models, the selected one is refined; "path": every order refined; "guarded": every
-order refined, the refinement kept where the held-out lines prefer it). ``seed`` and
+order refined, the refinement kept where the held-out lines prefer it) and ``frequency_start``
+("both": the MOLI start beside the subspace one at each order). ``seed`` and
 ``center`` have nothing to act on and are accepted as they are. Every other field is a
 choice of the time-domain method (filters, structure lists, records): one changed from
 its default is refused, so that no choice is silently ignored.
@@ -19,9 +20,9 @@ from dataclasses import dataclass, fields
 from ...errors import OptionError
 from ..options import IdentifyOptions
 
-__all__ = ["FrequencySettings", "frequency_settings", "READ", "ACCEPTED"]
+__all__ = ["FrequencySettings", "frequency_settings", "refuse_frequency_options", "READ", "ACCEPTED"]
 
-READ = ("nmax", "order", "order_rule", "order_errors", "feedthrough", "max_radius", "refine")
+READ = ("nmax", "order", "order_rule", "order_errors", "feedthrough", "max_radius", "refine", "frequency_start")
 ACCEPTED = ("seed", "center", "time")
 
 
@@ -35,6 +36,7 @@ class FrequencySettings:
     feedthrough: bool
     radius: float | None
     refine: str
+    moli_start: bool
 
 
 def frequency_settings(options: IdentifyOptions, continuous: bool, p: int) -> FrequencySettings:
@@ -56,4 +58,11 @@ def frequency_settings(options: IdentifyOptions, continuous: bool, p: int) -> Fr
                           "give a number in (0, 1] or None")
     return FrequencySettings(nmax=options.path_end(p), order=options.order, z=float(options.order_errors),
                              feedthrough=options.feedthrough is not False, radius=options.max_radius,
-                             refine=options.refine)
+                             refine=options.refine, moli_start=options.frequency_start == "both")
+
+
+def refuse_frequency_options(options: IdentifyOptions) -> None:
+    """Raise :class:`OptionError` where ``options`` make a choice that only frequency data have (for a time record)."""
+    if options.frequency_start != "subspace":
+        raise OptionError(f"frequency_start={options.frequency_start!r} applies to frequency data "
+                          "(a FrequencyData), not to a time record; leave it at 'subspace'")

@@ -15,8 +15,8 @@ from typing import Any, Mapping
 from ...errors import OptionError
 from ...validation.comparison import X0_CHOICES
 from .choices import (
-    CLOSED_LOOP_METHODS, EVAPORATOR_CHOICES, FAST_CHOICES, INPUT_HOLDS, METHODS, MIN_SEARCH_SAMPLES, ORDER_RULES, PRESETS,
-    REFINE_CHOICES, TIMES,
+    CLOSED_LOOP_METHODS, EVAPORATOR_CHOICES, FAST_CHOICES, FREQUENCY_STARTS, INPUT_HOLDS, METHODS, MIN_SEARCH_SAMPLES,
+    ORDER_RULES, PRESETS, REFINE_CHOICES, TIMES,
 )
 from .value_checks import (
     check_choice, check_delays, check_flag, check_names, check_integer, check_number, check_omega_pairs, check_ridges,
@@ -177,6 +177,11 @@ class IdentifyOptions:
         What estimates the model: the MOLI path, or the realization of a regularized (TC)
         impulse response with its order chosen on validation (:func:`moli.identify_kernel`,
         docs/regularization.md), which reads ``nmax``, ``x0``, ``center`` and ``feedthrough``.
+    frequency_start : {"subspace", "both"}, default "subspace"
+        Frequency data only: each order's model grows from the frequency-domain subspace
+        start, or from it and the MOLI start on the frequency grid, both refined and the
+        better on the held-out lines kept (docs/frequency.md §2b: on the benchmark "both"
+        changed no figure and doubled the time, so it is not the default).
 
     Examples
     --------
@@ -222,6 +227,7 @@ class IdentifyOptions:
     reference: tuple[str, ...] | None = None
     closed_loop: str | None = None
     method: str = "moli"
+    frequency_start: str = "subspace"
 
     def __post_init__(self) -> None:
         radius = self.max_radius
@@ -270,6 +276,7 @@ class IdentifyOptions:
             "closed_loop": None if self.closed_loop is None else check_choice(
                 "closed_loop", self.closed_loop, CLOSED_LOOP_METHODS),
             "method": check_choice("method", self.method, METHODS),
+            "frequency_start": check_choice("frequency_start", self.frequency_start, FREQUENCY_STARTS),
         }
         if checked["closed_loop"] == "two-stage" and checked["reference"] is None:
             raise option_error("closed_loop", "'open' or 'direct' without a reference (the two-stage method "
