@@ -23,7 +23,7 @@ import numpy as np
 import scipy.linalg
 
 from .fir_rows import FirFactor
-from .kernels import ARTANH_BOUND, LOGIT_BOUND, hyperparameter_count, kernel_matrix, square_root
+from .kernels import ARTANH_BOUND, LOGIT_BOUND, hyperparameter_count, kernel_root
 
 __all__ = ["OutputFit", "fit_output", "neg_log_likelihood"]
 
@@ -54,7 +54,7 @@ class OutputFit:
 
 def _root(kind: str, lags: np.ndarray, coordinates: list[np.ndarray]) -> np.ndarray:
     """The block-diagonal square root of the prior of every input's coefficients."""
-    return scipy.linalg.block_diag(*[square_root(kernel_matrix(kind, lags, z)) for z in coordinates])
+    return scipy.linalg.block_diag(*[kernel_root(kind, lags, z) for z in coordinates])
 
 
 def _posterior_factor(factor: FirFactor, j: int, L: np.ndarray, sigma: float) -> np.ndarray:
