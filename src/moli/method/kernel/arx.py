@@ -167,11 +167,11 @@ def regularized_arx(data: IOData, kernel: str = "TC", lags: int | None = None, *
     --------
     >>> import numpy as np, moli
     >>> rng = np.random.default_rng(0)
-    >>> u, y = rng.standard_normal(300), np.zeros(300)
-    >>> for t in range(1, 300):
-    ...     y[t] = 0.8 * y[t - 1] + u[t - 1]
-    >>> fit = regularized_arx(moli.IOData(y + 0.05 * rng.standard_normal(300), u), lags=10)
-    >>> bool(abs(fit.outputs[0, 0, 0] - 0.8) < 0.05 and abs(fit.inputs[0, 0, 0] - 1.0) < 0.05)
+    >>> u, e, y = rng.standard_normal(300), 0.05 * rng.standard_normal(300), np.zeros(300)
+    >>> for t in range(1, 300):       # an ARX system: the noise enters the recursion
+    ...     y[t] = 0.8 * y[t - 1] + u[t - 1] + e[t]
+    >>> fit = regularized_arx(moli.IOData(y, u), lags=10)
+    >>> bool(abs(fit.outputs[0, 0, 0] - 0.8) < 0.05 and abs(fit.inputs[1, 0, 0] - 1.0) < 0.05)
     True
     """
     if not isinstance(data, IOData):
