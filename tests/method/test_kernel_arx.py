@@ -112,9 +112,12 @@ def test_balancing_gives_the_hankel_singular_values_and_keeps_the_unstable_part(
     H = np.block([[markov[i + j] for j in range(200)] for i in range(200)])
     assert np.allclose(balancing(A, B, C).hankel_singular_values, np.linalg.svd(H, compute_uv=False)[:3],
                        rtol=1e-8)
-    # an unstable mode (1.2) is kept exactly at every order, beside the stable part's truncation
-    unstable = scipy.linalg.block_diag(A, [[1.2]])
-    B2, C2 = np.vstack([B, rng.standard_normal((1, 2))]), np.hstack([C, rng.standard_normal((2, 1))])
+    # an unstable mode (1.2) is kept exactly at every order, beside the stable part's truncation;
+    # a change of basis couples it with the stable states (the Sylvester equation has work to do)
+    M = np.eye(4) + 0.3 * rng.standard_normal((4, 4))
+    unstable = M @ scipy.linalg.block_diag(A, [[1.2]]) @ np.linalg.inv(M)
+    B2 = M @ np.vstack([B, rng.standard_normal((1, 2))])
+    C2 = np.hstack([C, rng.standard_normal((2, 1))]) @ np.linalg.inv(M)
     kept = balancing(unstable, B2, C2)
     assert kept.unstable == 1 and kept.largest_order == 4
     for order in (1, 2, 4):
