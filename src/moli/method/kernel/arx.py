@@ -202,7 +202,8 @@ def regularized_arx(data: IOData, kernel: str = "TC", lags: int | None = None, *
     spread = np.concatenate([np.std(record.y, axis=0), np.std(record.u, axis=0)])
     spread[spread == 0] = 1.0                        # a constant output: nothing to scale
     regressors, outputs = np.repeat(1.0 / spread, n), 1.0 / spread[:p]
-    tried = [False, True] if feedthrough == "auto" and kernel != "none" else [feedthrough is True]
+    automatic = isinstance(feedthrough, str)
+    tried = [False, True] if automatic and kernel != "none" else [not automatic and bool(feedthrough)]
     candidates = []
     for direct in tried:
         factor = arx_factor(record, n, direct)

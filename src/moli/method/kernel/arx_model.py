@@ -136,9 +136,10 @@ def identify_kernel_arx(data: IOData, validation: IOData | None = None, *, kerne
     chosen = path[selected]
     info = {"method": "kernel-arx", "kernel": kernel, "arx_lags": arx.lags, "validation_vaf": chosen.vaf.tolist(),
             **({} if data.time_unit is None else {"time_unit": data.time_unit})}
+    cov_factor = _covariance(arx, *balanced.projection(chosen.order))
     model = StateSpaceModel(chosen.model.A, chosen.model.B, chosen.model.C, D, data.Ts,
                             output_names=data.output_names, input_names=data.input_names, y_offset=means[0],
-                            u_offset=means[1], info=info, cov_factor=_covariance(arx, *balanced.projection(chosen.order)))
+                            u_offset=means[1], info=info, cov_factor=cov_factor)
     path[selected] = KernelStep(chosen.order, model, chosen.vaf)
     return KernelArxResult(model, arx, path, selected, estimation=estimation, validation=validation,
                            validation_source=source)
