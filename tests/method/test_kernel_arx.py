@@ -128,6 +128,26 @@ def test_balancing_gives_the_hankel_singular_values_and_keeps_the_unstable_part(
     assert np.allclose(np.sort(np.linalg.eigvals(W.T @ unstable @ V)), np.sort(np.linalg.eigvals(unstable)))
 
 
+def test_the_gain_bands_hold_the_true_gain():
+    # a first-order plant (an output-error one: the ARX model only approximates it), 150 samples at
+    # 10 dB: the 95 % bands of |G| at four frequencies held the true gain on 0.89 of the points of 40
+    # records (0.86 on the first 20, 0.93 on the others; order 1 selected on 34); on 20 records (80
+    # points) 0.75 is three binomial standard deviations (0.035) below 0.86. Bands of a covariance
+    # that misses the shrinkage or the noise hold far less (the DC gain, the most shrunk, at 0.78).
+    plant = moli.StateSpaceModel([[0.8]], [[1.0]], [[0.5]])
+    omega = np.array([0.0, 0.3, 1.0, 2.5])
+    truth = np.abs(plant.frequency_response(omega))[:, 0, 0]
+    held = []
+    for seed in range(20):
+        rng = np.random.default_rng(seed)
+        u = rng.standard_normal((150, 1))
+        clean = plant.simulate(u)
+        data = moli.IOData(clean + np.std(clean) / np.sqrt(10) * rng.standard_normal(clean.shape), u)
+        lower, upper = moli.identify_kernel_arx(data, nmax=4).model.magnitude_bands(omega)
+        held.append((lower[:, 0, 0] <= truth) & (truth <= upper[:, 0, 0]))
+    assert np.mean(held) >= 0.75
+
+
 def test_the_simulator_is_the_arx_recursion():
     # the block observer form simulated against the difference equation run sample by sample
     rng = np.random.default_rng(4)
