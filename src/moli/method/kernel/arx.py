@@ -220,7 +220,8 @@ def regularized_arx(data: IOData, kernel: str = "TC", lags: int | None = None, *
     blocks = np.stack([(b * f.coefficients).reshape(p + m, n) for b, f in zip(back, fits)])   # (p, p + m, n)
     inputs = np.zeros((n + 1, p, m))
     for j in range(p):
-        inputs[int(not direct[j]):n + int(not direct[j]), j] = blocks[j, p:].T
+        first = 0 if direct[j] else 1
+        inputs[first:first + n, j] = blocks[j, p:].T
     return RegularizedArx(
         outputs=blocks[:, :p].transpose(2, 0, 1).copy(), inputs=inputs,
         cov_factors=tuple(b[:, None] * f.cov_factor for b, f in zip(back, fits)),
