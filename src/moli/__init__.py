@@ -43,7 +43,7 @@ _HOMES = {
     "IdentifyOptions": "method", "PathStep": "method", "estimate_noise_model": "method",
     "estimate_covariance": "method", "ContinuousResult": "method", "FrequencyResult": "method",
     "impulse_response": "method", "ImpulseResponse": "method", "identify_kernel": "method",
-    "KernelResult": "method",
+    "KernelResult": "method", "identify_kernel_arx": "method", "KernelArxResult": "method",
     "identify_many": "fleets", "FleetResult": "fleets", "estimate_chunks": "fleets",
     "RecursiveMoli": "streaming", "ChunkedEstimator": "streaming", "FilterBank": "streaming",
     "example_data": "systems", "example_plant": "systems", "experiment": "systems",
@@ -69,7 +69,7 @@ if TYPE_CHECKING:  # what the lazy names are, for type checkers and IDEs
     from .method import (
         ContinuousResult, FrequencyResult, IdentificationResult, IdentifyOptions, ImpulseResponse, PathStep, divisor,
         divisors, estimate, estimate_covariance, estimate_noise_model, filter_polynomial, identify, identify_kernel,
-        impulse_response, KernelResult,
+        impulse_response, KernelResult, identify_kernel_arx, KernelArxResult,
     )
     from .models import ContinuousModel, Mode, StateSpaceModel, load_model, modes
     from .streaming import ChunkedEstimator, FilterBank, RecursiveMoli

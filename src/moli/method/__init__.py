@@ -17,6 +17,8 @@ from .continuous import ContinuousResult, ContinuousStep
 from .frequency import FrequencyResult, FrequencyStep
 from .kernel.impulse import ImpulseResponse, impulse_response
 from .kernel.kernel_model import KernelResult, identify_kernel
+from .kernel.arx import RegularizedArx, regularized_arx
+from .kernel.arx_model import KernelArxResult, identify_kernel_arx
 from .least_squares.estimation import estimate
 from .least_squares.realization import realize
 from .structure.filters import divisor, divisors, filter_polynomial
@@ -36,4 +38,5 @@ __all__ = [
     "TuningResult", "default_omega", "tune_filter", "estimate_covariance",
     "ContinuousResult", "ContinuousStep", "FrequencyResult", "FrequencyStep", "prediction_error_refine",
     "ReferenceProjection", "fit_projection", "ImpulseResponse", "impulse_response", "KernelResult", "identify_kernel",
+    "RegularizedArx", "regularized_arx", "KernelArxResult", "identify_kernel_arx",
 ]

@@ -25,7 +25,7 @@ import scipy.linalg
 from .fir_rows import FirFactor
 from .kernels import ARTANH_BOUND, LOGIT_BOUND, hyperparameter_count, kernel_root
 
-__all__ = ["OutputFit", "fit_output", "neg_log_likelihood"]
+__all__ = ["OutputFit", "fit_output", "neg_log_likelihood", "posterior"]
 
 # Decays per sample and shares of the output's variance left to the noise tried before the search
 # (every pair of them, each at its best overall scale): the best of them starts it.
@@ -143,12 +143,19 @@ def fit_output(factor: FirFactor, j: int, kind: str, lags: np.ndarray, scales: n
     x = np.clip(found.x, low, high) if found.fun <= best[1] else x0
     coordinates, sigma2 = _split(kind, m, x)
     L = _root(kind, lags, coordinates)
+    coefficients, cov_factor = posterior(factor, j, L, sigma2)
+    return OutputFit(coefficients, cov_factor, sigma2, tuple(coordinates), float(min(found.fun, best[1])))
+
+
+def posterior(factor: FirFactor, j: int, L: np.ndarray, sigma2: float) -> tuple[np.ndarray, np.ndarray]:
+    """Output ``j``'s posterior mean and covariance factor ``F`` (``cov = F F^T``) for the prior
+    square root ``L`` and noise variance ``sigma2``."""
+    d = L.shape[0]
     Q = _posterior_factor(factor, j, L, np.sqrt(sigma2))
     # posterior mean L Q1^-1 q2 and covariance factor sigma L Q1^-1 (Q1 is upper triangular)
     Q1 = Q[:d, :d]
     coefficients = L @ scipy.linalg.solve_triangular(Q1, Q[:d, d])
-    cov_factor = np.sqrt(sigma2) * scipy.linalg.solve_triangular(Q1.T, L.T, lower=True).T
-    return OutputFit(coefficients, cov_factor, sigma2, tuple(coordinates), float(min(found.fun, best[1])))
+    return coefficients, np.sqrt(sigma2) * scipy.linalg.solve_triangular(Q1.T, L.T, lower=True).T
 
 
 def _scaled_start(x: np.ndarray, factor: FirFactor, j: int, kind: str, lags: np.ndarray) -> tuple[np.ndarray, float]:
