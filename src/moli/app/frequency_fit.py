@@ -74,13 +74,7 @@ def selected_channels(data: FrequencyData, inputs: list[str] | None, outputs: li
             raise DataError(f"{flag} {','.join(wanted)}: {problem} in {source}, whose pair columns name "
                             f"{'outputs' if flag == '--outputs' else 'inputs'} {', '.join(found)}")
         picked.append([found.index(name) for name in wanted])
-    rows, columns = picked
-    pick = (slice(None), rows, slice(None))
-    G = data.G[pick][:, :, columns]
-    variance = None if data.variance is None else data.variance[pick][:, :, columns]
-    return FrequencyData(data.omega, G, unit="rad/s", Ts=data.Ts, variance=variance,
-                         output_names=[data.output_names[i] for i in rows],
-                         input_names=[data.input_names[j] for j in columns])
+    return data.pairs(slice(None), *picked)
 
 
 def summary(result: FrequencyResult) -> str:

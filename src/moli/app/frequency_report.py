@@ -3,7 +3,8 @@
 Provenance, the selected model and how its order was chosen, the run's warnings, the
 modal table, the orders tried, then the figures: per channel pair the data's and the
 model's magnitude (with the model's 95 % band and the data's standard deviation where
-the data carry a variance) and phase, the error on every line, and the stabilization
+the data carry a variance) and phase, the data's coherence where given, the error on every
+line, and the stabilization
 diagram (:mod:`moli.app.stabilization`); last the options.
 """
 
@@ -134,6 +135,19 @@ def _phase_figure(model: Any, data: FrequencyData, lines: np.ndarray, fitted: np
     return fig
 
 
+def _coherence_figure(model: Any, data: FrequencyData, lines: np.ndarray) -> Figure:
+    hz = data.hz[lines]
+    fig, axes = channel_grid(model, "coherence", "frequency (Hz)")
+    for i in range(model.p):
+        for j in range(model.m):
+            ax = axes[i, j]
+            ax.plot(hz, data.coherence[lines, i, j], color="C2", lw=0.9)
+            ax.set_xscale("log")
+            ax.set_ylim(-0.02, 1.02)
+            ax.grid(alpha=0.3)
+    return fig
+
+
 def _error_figure(model: Any, data: FrequencyData, lines: np.ndarray, fitted: np.ndarray) -> Figure:
     hz = data.hz[lines]
     measured = np.abs(data.G[lines])
@@ -195,6 +209,9 @@ def write_frequency_report(result: FrequencyResult, data: FrequencyData, directo
                       f"Magnitude of each channel pair, data (grey) and model (blue){band}{std}."),
         "phase": (_phase_figure(model, data, lines, fitted), "Phase of each channel pair, data (grey) and model "
                   "(blue); the data's phase is drawn on the model's branch."),
+        "coherence": (None if data.coherence is None else _coherence_figure(model, data, lines),
+                      "The data's magnitude-squared coherence on each line: near 1 where the output is the "
+                      "input's response, lower where noise, leakage or other inputs share the output."),
         "error": (_error_figure(model, data, lines, fitted), "The model's error on each line relative to the data, "
                   f"|G_model - G_data| / |G_data|{std.replace('; dotted', '; dotted grey')}: "
                   "where the error follows it, the model is as good as the data allow."),
@@ -207,6 +224,7 @@ def write_frequency_report(result: FrequencyResult, data: FrequencyData, directo
                           f"and the output shapes' MAC is at least {MAC_THRESHOLD} (damping and shape judged only "
                           "where the frequency is stable). Modes outside the measured band are left out."),
     }
+    drawn = {name: shown for name, shown in drawn.items() if shown[0] is not None}
     if len(lines) < data.F:
         drawn = {name: (fig, f"{caption} {len(lines)} of the {data.F} lines drawn, evenly spread.")
                  for name, (fig, caption) in drawn.items()}
