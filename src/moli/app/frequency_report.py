@@ -32,7 +32,7 @@ from .figures import BAND_CONFIDENCE, channel_grid
 from .report import STYLE, embedded_image, facts_table, warnings_section
 from .stabilization import DAMPING_TOLERANCE, FREQUENCY_TOLERANCE, MAC_THRESHOLD, stabilization, stabilization_figure
 
-__all__ = ["write_frequency_report", "modal_lines", "drawn_lines", "MAX_DRAWN_LINES"]
+__all__ = ["write_frequency_report", "modal_lines", "drawn_lines", "delays_text", "MAX_DRAWN_LINES"]
 
 # At most this many lines are drawn (evenly spread over the data's): a 2.4-inch panel is some
 # 260 pixels wide, so more only slow the drawing; the fit and the tables use every line.
@@ -54,6 +54,16 @@ def modal_lines(model: Any) -> list[str]:
                      f"{_with_std(mode.frequency_hz, hz_std, 4)} Hz  zeta {_with_std(mode.damping, mode.damping_std, 4)}"
                      + ("" if mode.oscillatory else "  (real pole)"))
     return lines
+
+
+def delays_text(model: Any) -> str:
+    """The model's input delays by input name, in time units (continuous) or samples, and what the search
+    estimated before the held-out lines judged each (``delays="auto"``)."""
+    unit = "samples" if getattr(model, "Ts", None) is not None else "time units"
+    shown = ", ".join(f"{name} {delay:.6g}" for name, delay in zip(model.input_names, model.input_delays))
+    estimated = model.info.get("delays_estimated")
+    return f"{shown} ({unit})" + ("" if estimated is None else
+                                  f"; estimated before the held-out test: {', '.join(f'{d:.6g}' for d in estimated)}")
 
 
 def _modal_table(model: Any) -> str:
@@ -238,6 +248,8 @@ def write_frequency_report(result: FrequencyResult, data: FrequencyData, directo
              "refined on every line": "yes" if model.info.get("refined") else "no",
              "stable": "yes" if model.is_stable() else "NO",
              "covariance": "yes" if result.covariance_note is None else f"none: {result.covariance_note}"}
+    if any(model.input_delays) or "delays_estimated" in model.info:
+        facts["input delays"] = delays_text(model)
     options = facts_table({name: str(value) for name, value in result.options.to_dict().items()})
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>moli frequency-domain identification</title>
