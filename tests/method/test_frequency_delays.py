@@ -66,14 +66,20 @@ def test_noise_free_delays_and_poles_are_recovered_exactly():
 
 
 @pytest.mark.parametrize("seed", range(4))
-def test_noisy_delays_are_recovered_within_a_twentieth_of_a_millisecond(seed):
-    # 1 % noise on 800 lines: the delay's standard error is some 5 microseconds here (the sandwich of the joint
-    # fit), and a model one state larger, taking part of the delay, was preferred on none of these seeds;
-    # 0.05 ms is ten standard errors, and a fifth of what that larger model keeps of the delay.
+def test_noisy_delays_are_recovered_within_a_stated_tolerance(seed):
+    # 1 % noise on 640 estimation lines: the information of the lines alone, 2 sum_k,i (omega_k / 0.01)^2,
+    # gives the delay a standard error of 2 microseconds (its correlation with the modal parameters widens
+    # it a few times); 0.05 ms is far outside that, and far inside what a wrong choice costs (a grid
+    # step is 1.2 ms, an extra state takes 0.5-1 ms of the delay).
     model = moli.identify(noisy(delayed_response(DELAYS), 0.01, seed), delays="auto", feedthrough=False).model
-    assert model.n == 4
-    assert model.input_delays[0] == 0.0
+    assert model.n == 4 and model.input_delays[0] == 0.0
     assert abs(model.input_delays[1] - DELAYS[1]) <= 5e-5
+    # with D estimated the delay's first-order effect is a change of B and D (docs/frequency.md §4): only its
+    # second-order effect pins it, and these seeds gave 2.86-3.04 ms; a tenth of the delay is the accuracy
+    # the docs state for that case
+    free = moli.identify(noisy(delayed_response(DELAYS), 0.01, seed), delays="auto").model
+    assert free.n == 4 and free.input_delays[0] == 0.0
+    assert abs(free.input_delays[1] - DELAYS[1]) <= 0.1 * DELAYS[1]
 
 
 @pytest.mark.parametrize("feedthrough", [False, "auto"])

@@ -67,13 +67,10 @@ class DelayFit:
         Per input, in time units (continuous) or samples (sampled data, whole numbers).
     estimated : tuple of float
         Per input, the delay fitted on the estimation lines before the held-out lines judged it.
-    order : int
-        The order the search fitted them at.
     """
 
     delays: tuple[float, ...]
     estimated: tuple[float, ...]
-    order: int
 
 
 @dataclass(frozen=True)
@@ -249,7 +246,7 @@ def _forced(data: FrequencyData, delays: int | tuple[int, ...]) -> DelayFit:
     values = (delays,) * data.m if isinstance(delays, int) else tuple(delays)
     if len(values) != data.m:
         raise OptionError(f"delays has {len(values)} entries for the {data.m} inputs of the frequency data")
-    return DelayFit(tuple(float(d) for d in values), tuple(float(d) for d in values), 0)
+    return DelayFit(tuple(float(d) for d in values), tuple(float(d) for d in values))
 
 
 def forced_delays(data: FrequencyData, settings: FrequencySettings) -> DelayFit | None:
@@ -293,8 +290,7 @@ def fit_delays(data: FrequencyData, domain: FitDomain, settings: FrequencySettin
             break
     none = (0.0,) * data.m
     if chosen is None or not np.any(chosen.delays > 0):
-        return DelayFit(none, none if chosen is None else tuple(float(d) for d in chosen.delays),
-                        0 if chosen is None else chosen.order)
+        return DelayFit(none, none if chosen is None else tuple(float(d) for d in chosen.delays))
     estimated = tuple(float(d) for d in chosen.delays)
     for j in np.flatnonzero(chosen.delays > 0):
         # the fit without input j's delay (the others free) against the one with it, at the same order
@@ -307,7 +303,7 @@ def fit_delays(data: FrequencyData, domain: FitDomain, settings: FrequencySettin
                 100.0 - max(rival.mean_vaf, chosen.mean_vaf))) == 0:
             chosen = rival
     if not np.any(chosen.delays > 0):
-        return DelayFit(none, estimated, chosen.order)
+        return DelayFit(none, estimated)
     _, delays, _ = refine_with_delays(chosen.layout, chosen.theta, chosen.delays, free[chosen.delays[free] > 0],
                                       data, domain, radius=settings.radius)
-    return DelayFit(tuple(float(d) for d in delays), estimated, chosen.order)
+    return DelayFit(tuple(float(d) for d in delays), estimated)
