@@ -164,3 +164,29 @@ def test_the_report_draws_the_data_s_standard_deviation_where_given(tmp_path):
     page = html.unescape(write_frequency_report(result, data, tmp_path).read_text())
     assert "the data's standard deviation per line" in page
     assert "shaded: the model's pointwise 95 % band" in page          # the refined model's covariance
+
+
+def test_the_report_draws_the_data_s_coherence_under_the_phase_where_given(tmp_path):
+    g = responses(HZ)["disp/force"]
+    coherence = np.clip(np.abs(g) / np.abs(g).max(), 0.05, 1.0)       # any values in [0, 1]
+    with_coherence = moli.FrequencyData(HZ, g, unit="Hz", coherence=coherence)
+    result = moli.identify(with_coherence, order=4)
+    page = html.unescape(write_frequency_report(result, with_coherence, tmp_path / "with").read_text())
+    assert (tmp_path / "with" / "coherence.png").is_file() and "magnitude-squared coherence on each line" in page
+    assert page.index('alt="phase"') < page.index('alt="coherence"') < page.index('alt="error"')
+    plain = moli.FrequencyData(HZ, g, unit="Hz")
+    page = write_frequency_report(moli.identify(plain, order=4), plain, tmp_path / "without").read_text()
+    assert not (tmp_path / "without" / "coherence.png").exists() and "coherence on each line" not in page
+
+
+def test_coherence_columns_reach_the_report_of_the_command(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    columns = {"frequency_hz": HZ}
+    for pair, g in responses(HZ).items():
+        columns[f"{pair} re"], columns[f"{pair} im"], columns[f"{pair} coh"] = g.real, g.imag, np.full(HZ.size, 0.9)
+    rows = np.column_stack(list(columns.values()))
+    Path("frf.csv").write_text(",".join(columns) + "\n" + "\n".join(",".join(f"{v:.17g}" for v in row)
+                                                                     for row in rows) + "\n")
+    done = run("fit", "frf.csv", "--frequency", "--outputs", "accel", "--nmax", "4")
+    assert done.exit_code == 0, done.output
+    assert Path("moli-fit-frf/report/coherence.png").is_file()

@@ -32,7 +32,7 @@ from ..method.identification import identify
 from ..method.options import IdentifyOptions
 from ..models.continuous import ContinuousModel
 from .console import InterruptHold
-from .frequency_report import modal_lines, write_frequency_report
+from .frequency_report import delays_text, modal_lines, write_frequency_report
 from .outputs import fit_outputs, run_folder, save_held
 from .progress import Phases
 from .reading import RunWarnings, names
@@ -74,13 +74,7 @@ def selected_channels(data: FrequencyData, inputs: list[str] | None, outputs: li
             raise DataError(f"{flag} {','.join(wanted)}: {problem} in {source}, whose pair columns name "
                             f"{'outputs' if flag == '--outputs' else 'inputs'} {', '.join(found)}")
         picked.append([found.index(name) for name in wanted])
-    rows, columns = picked
-    pick = (slice(None), rows, slice(None))
-    G = data.G[pick][:, :, columns]
-    variance = None if data.variance is None else data.variance[pick][:, :, columns]
-    return FrequencyData(data.omega, G, unit="rad/s", Ts=data.Ts, variance=variance,
-                         output_names=[data.output_names[i] for i in rows],
-                         input_names=[data.input_names[j] for j in columns])
+    return data.pairs(slice(None), *picked)
 
 
 def summary(result: FrequencyResult) -> str:
@@ -95,7 +89,8 @@ def summary(result: FrequencyResult) -> str:
     lines = [f"order {step.order} selected by {how}; held-out mean VAF {step.mean_vaf:.2f} %",
              f"{kind} model, {model.n} states, {'stable' if model.is_stable() else 'UNSTABLE'}, "
              f"{'refined on every line' if model.info['refined'] else 'not refined'}, "
-             f"{covariance}; {result.seconds:.1f} s", *modal_lines(model)]
+             f"{covariance}; {result.seconds:.1f} s",
+             *([f"input delays: {delays_text(model)}"] if any(model.input_delays) else []), *modal_lines(model)]
     return "\n".join(lines)
 
 

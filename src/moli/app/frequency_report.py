@@ -3,7 +3,8 @@
 Provenance, the selected model and how its order was chosen, the run's warnings, the
 modal table, the orders tried, then the figures: per channel pair the data's and the
 model's magnitude (with the model's 95 % band and the data's standard deviation where
-the data carry a variance) and phase, the error on every line, and the stabilization
+the data carry a variance) and phase, the data's coherence where given, the error on every
+line, and the stabilization
 diagram (:mod:`moli.app.stabilization`); last the options.
 """
 
@@ -31,7 +32,7 @@ from .figures import BAND_CONFIDENCE, channel_grid
 from .report import STYLE, embedded_image, facts_table, warnings_section
 from .stabilization import DAMPING_TOLERANCE, FREQUENCY_TOLERANCE, MAC_THRESHOLD, stabilization, stabilization_figure
 
-__all__ = ["write_frequency_report", "modal_lines", "drawn_lines", "MAX_DRAWN_LINES"]
+__all__ = ["write_frequency_report", "modal_lines", "drawn_lines", "delays_text", "MAX_DRAWN_LINES"]
 
 # At most this many lines are drawn (evenly spread over the data's): a 2.4-inch panel is some
 # 260 pixels wide, so more only slow the drawing; the fit and the tables use every line.
@@ -53,6 +54,16 @@ def modal_lines(model: Any) -> list[str]:
                      f"{_with_std(mode.frequency_hz, hz_std, 4)} Hz  zeta {_with_std(mode.damping, mode.damping_std, 4)}"
                      + ("" if mode.oscillatory else "  (real pole)"))
     return lines
+
+
+def delays_text(model: Any) -> str:
+    """The model's input delays by input name, in time units (continuous) or samples, and what the search
+    estimated before the held-out lines judged each (``delays="auto"``)."""
+    unit = "samples" if getattr(model, "Ts", None) is not None else "time units"
+    shown = ", ".join(f"{name} {delay:.6g}" for name, delay in zip(model.input_names, model.input_delays))
+    estimated = model.info.get("delays_estimated")
+    return f"{shown} ({unit})" + ("" if estimated is None else
+                                  f"; estimated before the held-out test: {', '.join(f'{d:.6g}' for d in estimated)}")
 
 
 def _modal_table(model: Any) -> str:
@@ -134,6 +145,19 @@ def _phase_figure(model: Any, data: FrequencyData, lines: np.ndarray, fitted: np
     return fig
 
 
+def _coherence_figure(model: Any, data: FrequencyData, lines: np.ndarray) -> Figure:
+    hz = data.hz[lines]
+    fig, axes = channel_grid(model, "coherence", "frequency (Hz)")
+    for i in range(model.p):
+        for j in range(model.m):
+            ax = axes[i, j]
+            ax.plot(hz, data.coherence[lines, i, j], color="C2", lw=0.9)
+            ax.set_xscale("log")
+            ax.set_ylim(-0.02, 1.02)
+            ax.grid(alpha=0.3)
+    return fig
+
+
 def _error_figure(model: Any, data: FrequencyData, lines: np.ndarray, fitted: np.ndarray) -> Figure:
     hz = data.hz[lines]
     measured = np.abs(data.G[lines])
@@ -195,6 +219,9 @@ def write_frequency_report(result: FrequencyResult, data: FrequencyData, directo
                       f"Magnitude of each channel pair, data (grey) and model (blue){band}{std}."),
         "phase": (_phase_figure(model, data, lines, fitted), "Phase of each channel pair, data (grey) and model "
                   "(blue); the data's phase is drawn on the model's branch."),
+        "coherence": (None if data.coherence is None else _coherence_figure(model, data, lines),
+                      "The data's magnitude-squared coherence on each line: near 1 where the output is the "
+                      "input's response, lower where noise, leakage or other inputs share the output."),
         "error": (_error_figure(model, data, lines, fitted), "The model's error on each line relative to the data, "
                   f"|G_model - G_data| / |G_data|{std.replace('; dotted', '; dotted grey')}: "
                   "where the error follows it, the model is as good as the data allow."),
@@ -207,6 +234,7 @@ def write_frequency_report(result: FrequencyResult, data: FrequencyData, directo
                           f"and the output shapes' MAC is at least {MAC_THRESHOLD} (damping and shape judged only "
                           "where the frequency is stable). Modes outside the measured band are left out."),
     }
+    drawn = {name: shown for name, shown in drawn.items() if shown[0] is not None}
     if len(lines) < data.F:
         drawn = {name: (fig, f"{caption} {len(lines)} of the {data.F} lines drawn, evenly spread.")
                  for name, (fig, caption) in drawn.items()}
@@ -220,6 +248,8 @@ def write_frequency_report(result: FrequencyResult, data: FrequencyData, directo
              "refined on every line": "yes" if model.info.get("refined") else "no",
              "stable": "yes" if model.is_stable() else "NO",
              "covariance": "yes" if result.covariance_note is None else f"none: {result.covariance_note}"}
+    if any(model.input_delays) or "delays_estimated" in model.info:
+        facts["input delays"] = delays_text(model)
     options = facts_table({name: str(value) for name, value in result.options.to_dict().items()})
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>moli frequency-domain identification</title>

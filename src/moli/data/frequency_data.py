@@ -1,4 +1,4 @@
-"""FrequencyData: a measured frequency response G(omega) of shape (F, p, m), its lines and their variance."""
+"""FrequencyData: a measured frequency response G(omega) of shape (F, p, m), its lines, their variance and coherence."""
 
 from __future__ import annotations
 
@@ -58,6 +58,14 @@ def _response(G: object, lines: int, shape: tuple[int, int] | None) -> np.ndarra
     return response
 
 
+def _averages(averages: object) -> int | None:
+    if averages is None:
+        return None
+    if isinstance(averages, (bool, np.bool_)) or not isinstance(averages, (int, np.integer)) or averages < 1:
+        raise DataError(f"averages must be a positive integer (the spectra averaged per line), got {averages!r}")
+    return int(averages)
+
+
 def _first_bad_line(values: np.ndarray) -> int | None:
     bad = ~np.isfinite(values.reshape(values.shape[0], -1)).all(axis=1)
     return int(np.argmax(bad)) if bad.any() else None
@@ -108,6 +116,8 @@ class FrequencyData:
         variance: object | None = None,
         output_names: Sequence[str] | None = None,
         input_names: Sequence[str] | None = None,
+        coherence: object | None = None,
+        averages: int | None = None,
     ) -> None:
         omega = _frequencies(frequencies, unit)
         named = None
@@ -131,25 +141,59 @@ class FrequencyData:
                             else name_list("input_names", input_names, m))
         self._omega = omega
         self._G = response
+        self._coherence = None if coherence is None else self._checked_coherence(coherence)
+        self.averages = _averages(averages)
+        if self.averages is not None and (self._coherence is None or variance is not None):
+            raise DataError("averages turns a coherence into a variance: give it with coherence and without "
+                            f"variance (got coherence={'None' if self._coherence is None else 'given'}, "
+                            f"variance={'None' if variance is None else 'given'})")
+        if self.averages is not None:
+            variance = self._variance_from_coherence()
         self._variance = None if variance is None else self._checked_variance(variance)
-        for array in (self._omega, self._G, self._variance):
+        for array in (self._omega, self._G, self._variance, self._coherence):
             if array is not None:
                 array.flags.writeable = False
 
     def _checked_variance(self, variance: object) -> np.ndarray:
-        values = real_array("variance", variance, finite=False)
-        if values.ndim == 1 and values.shape == (self.F,):
-            values = np.repeat(values[:, None, None], self.p, axis=1).repeat(self.m, axis=2)
-        if values.shape != self._G.shape:
-            raise DataError(f"variance must have shape {self._G.shape} (like G) or ({self.F},), got {values.shape}")
-        bad = _first_bad_line(values)
-        if bad is not None:
-            raise DataError(f"variance has NaN or inf at line {bad} ({self._omega[bad]:g} rad/s)")
+        values = self._per_pair("variance", variance)
         low = np.flatnonzero((values <= 0).reshape(self.F, -1).any(axis=1))
         if low.size:
             raise DataError(f"variance must be positive: line {low[0]} ({self._omega[low[0]]:g} rad/s) has "
                             f"{values[low[0]].min():g}; leave variance out to weigh every line the same")
         return values
+
+    def _per_pair(self, name: str, given: object) -> np.ndarray:
+        values = real_array(name, given, finite=False)
+        if values.ndim == 1 and values.shape == (self.F,):
+            values = np.repeat(values[:, None, None], self.p, axis=1).repeat(self.m, axis=2)
+        if values.shape != self._G.shape:
+            raise DataError(f"{name} must have shape {self._G.shape} (like G) or ({self.F},), got {values.shape}")
+        bad = _first_bad_line(values)
+        if bad is not None:
+            raise DataError(f"{name} has NaN or inf at line {bad} ({self._omega[bad]:g} rad/s)")
+        return values
+
+    def _checked_coherence(self, coherence: object) -> np.ndarray:
+        values = self._per_pair("coherence", coherence)
+        outside = np.flatnonzero(((values < 0) | (values > 1)).reshape(self.F, -1).any(axis=1))
+        if outside.size:
+            k = outside[0]
+            worst = values[k].min() if values[k].min() < 0 else values[k].max()
+            raise DataError(f"coherence must lie in [0, 1] (the magnitude-squared coherence): line {k} "
+                            f"({self._omega[k]:g} rad/s) has {worst:g}")
+        return values
+
+    def _variance_from_coherence(self) -> np.ndarray:
+        """The H1 estimate's variance ``(1 - gamma^2) |G|^2 / (n gamma^2)`` (Bendat and Piersol: twice the
+        variance of ``|G|``, the error being circular)."""
+        coherence = self._coherence
+        edge = np.flatnonzero(((coherence <= 0) | (coherence >= 1)).reshape(self.F, -1).any(axis=1))
+        if edge.size:
+            k = edge[0]
+            raise DataError(f"coherence {coherence[k].min() if coherence[k].min() <= 0 else coherence[k].max():g} "
+                            f"at line {k} ({self._omega[k]:g} rad/s) gives no variance (0 or infinite): drop the "
+                            "line, or give variance instead of averages")
+        return (1.0 - coherence) * np.abs(self._G) ** 2 / (self.averages * coherence)
 
     @property
     def omega(self) -> np.ndarray:
@@ -170,6 +214,11 @@ class FrequencyData:
     def variance(self) -> np.ndarray | None:
         """Each line's and channel pair's variance, shape (F, p, m), or None (read-only)."""
         return self._variance
+
+    @property
+    def coherence(self) -> np.ndarray | None:
+        """Each line's and channel pair's magnitude-squared coherence, shape (F, p, m), or None (read-only)."""
+        return self._coherence
 
     @property
     def F(self) -> int:
@@ -197,15 +246,27 @@ class FrequencyData:
     def __repr__(self) -> str:
         kind = "continuous" if self.Ts is None else f"Ts={self.Ts:g}"
         return (f"FrequencyData(F={self.F}, p={self.p}, m={self.m}, {kind}, "
-                f"omega={self._omega[0]:g}..{self._omega[-1]:g} rad/s, variance={self._variance is not None})")
+                f"omega={self._omega[0]:g}..{self._omega[-1]:g} rad/s, variance={self._variance is not None}"
+                + ("" if self._coherence is None else ", coherence=True") + ")")
 
     def lines(self, index: object) -> "FrequencyData":
         """The lines picked by ``index`` (a slice, a boolean mask or increasing integer positions)."""
         picked = np.arange(self.F)[index]
         if np.ndim(picked) == 0 or np.size(picked) == 0:
             raise DataError(f"lines needs an index that keeps at least one of the {self.F} lines, got {index!r}")
+        return self.pairs(picked, range(self.p), range(self.m))
+
+    def pairs(self, lines: object, outputs: Sequence[int], inputs: Sequence[int]) -> "FrequencyData":
+        """The ``lines`` (any index of the lines) of the pairs of ``outputs`` and ``inputs`` (positions),
+        with their variance and coherence (the variance derived again where it came from the coherence)."""
+        rows, columns = list(outputs), list(inputs)
+
+        def part(values: np.ndarray | None) -> np.ndarray | None:
+            return None if values is None else values[lines][:, rows][:, :, columns]
+
         return FrequencyData(
-            self._omega[picked], self._G[picked], unit="rad/s", Ts=self.Ts,
-            variance=None if self._variance is None else self._variance[picked],
-            output_names=self.output_names, input_names=self.input_names,
+            self._omega[lines], part(self._G), unit="rad/s", Ts=self.Ts,
+            variance=None if self.averages is not None else part(self._variance),
+            output_names=[self.output_names[i] for i in rows], input_names=[self.input_names[j] for j in columns],
+            coherence=part(self._coherence), averages=self.averages,
         )

@@ -7,13 +7,15 @@ columns per output/input pair, named ``"<output>/<input> <part>"``: the parts ``
 ``|G|``) and a phase (``deg`` or ``rad``). One convention holds for the whole table; the
 channel names come from the headers, in the order they first appear. Each pair may add the
 uncertainty of each line, as the variance of the complex response (``var``, ``E|G - G_0|^2``,
-as an analyzer's averages give it) or its square root (``sd``): every pair or none.
+as an analyzer's averages give it) or its square root (``sd``): every pair or none. Each pair may
+also give its magnitude-squared coherence (``coh``, in [0, 1]), every pair or none: shown, and with
+``averages`` (the spectra averaged per line) turned into the variance where no ``var`` or ``sd`` is given.
 
 A ``.mat`` file holds the arrays themselves: ``G`` of shape (F, p, m) with ``frequency_hz`` or
-``frequency_rad_s`` (and optionally ``variance`` shaped as ``G``, ``output_names`` and
+``frequency_rad_s`` (and optionally ``variance`` and ``coherence`` shaped as ``G``, ``output_names`` and
 ``input_names``), or the fields of MATLAB's ``idfrd`` saved as variables: ``ResponseData``
 (p, m, F) with ``Frequency`` and, optionally, ``FrequencyUnit`` ("rad/s", the default, or "Hz"),
-``OutputName`` and ``InputName``.
+``OutputName`` and ``InputName`` (an ``idfrd`` has no coherence).
 """
 
 from __future__ import annotations
@@ -41,11 +43,13 @@ CONVENTIONS = {
     ("mag", "rad"): "linear magnitude and phase in radians",
 }
 # The variables of a .mat file the reader looks at (no other is inflated).
-MAT_VARIABLES = ("G", "frequency_hz", "frequency_rad_s", "variance", "output_names", "input_names",
+MAT_VARIABLES = ("G", "frequency_hz", "frequency_rad_s", "variance", "coherence", "output_names", "input_names",
                  "ResponseData", "Frequency", "FrequencyUnit", "OutputName", "InputName")
 # The parts that give a line's uncertainty, and how each becomes the variance.
 SPREADS = {"var": lambda values: values, "sd": lambda values: values ** 2}
-PAIR_COLUMN = re.compile(r"^\s*(?P<output>[^/]+?)\s*/\s*(?P<input>.+?)\s+(?P<part>re|im|db|deg|mag|rad|var|sd)\s*$",
+# The part that gives a line's magnitude-squared coherence.
+COHERENCE = "coh"
+PAIR_COLUMN = re.compile(r"^\s*(?P<output>[^/]+?)\s*/\s*(?P<input>.+?)\s+(?P<part>re|im|db|deg|mag|rad|var|sd|coh)\s*$",
                          re.IGNORECASE)
 
 
@@ -83,7 +87,7 @@ def _pairs(columns: list[str], source: str) -> tuple[str, dict[tuple[str, str], 
         match = PAIR_COLUMN.match(column)
         if match is None:
             raise DataError(f"{source}: column {column!r} is neither the frequency column nor "
-                            "'<output>/<input> <part>' with the part re, im, dB, mag, deg or rad (or var, sd)")
+                            "'<output>/<input> <part>' with the part re, im, dB, mag, deg or rad (or var, sd, coh)")
         parts = pairs.setdefault((match["output"], match["input"]), {})
         part = match["part"].lower()
         if part in parts:
@@ -97,7 +101,7 @@ def _pairs(columns: list[str], source: str) -> tuple[str, dict[tuple[str, str], 
 def _convention(pairs: dict[tuple[str, str], dict[str, str]], source: str) -> tuple[str, str]:
     seen = set()
     for (output, input_), parts in pairs.items():
-        kind = next((c for c in CONVENTIONS if set(c) == set(parts) - set(SPREADS)), None)
+        kind = next((c for c in CONVENTIONS if set(c) == set(parts) - set(SPREADS) - {COHERENCE}), None)
         if kind is None:
             raise DataError(f"{source}: pair {output}/{input_} has the parts {sorted(parts.values())}; each pair "
                             "needs 're' and 'im', or a magnitude ('dB' or 'mag') and a phase ('deg' or 'rad')")
@@ -118,6 +122,14 @@ def _spread(pairs: dict[tuple[str, str], dict[str, str]], source: str) -> str | 
     return next(iter(kinds))[0] if kinds and next(iter(kinds)) else None
 
 
+def _has_coherence(pairs: dict[tuple[str, str], dict[str, str]], source: str) -> bool:
+    """Whether the pairs give a coherence column: every pair or none."""
+    lacking = [f"{o}/{i}" for (o, i), parts in pairs.items() if COHERENCE not in parts]
+    if lacking and len(lacking) < len(pairs):
+        raise DataError(f"{source}: give every pair a '{COHERENCE}' column or none; missing for {', '.join(lacking)}")
+    return not lacking
+
+
 def _mat_text(value: object) -> str:
     """A MATLAB char array as text."""
     return "".join(str(part) for part in np.asarray(value).ravel())
@@ -131,7 +143,7 @@ def _mat_names(value: object) -> list[str]:
     return [_mat_text(row) for row in np.atleast_2d(array)]
 
 
-def _read_mat(path: str | Path, source: str, Ts: float | None) -> tuple[FrequencyData, str]:
+def _read_mat(path: str | Path, source: str, Ts: float | None, averages: int | None) -> tuple[FrequencyData, str]:
     """The arrays of a .mat file (the module's two conventions) and how they were read."""
     from scipy.io import loadmat, whosmat  # only when a .mat file is read
 
@@ -147,7 +159,7 @@ def _read_mat(path: str | Path, source: str, Ts: float | None) -> tuple[Frequenc
             raise DataError(f"{source}: G needs exactly one of frequency_hz and frequency_rad_s; found {found or 'none'}")
         G, unit = np.asarray(content["G"]), FREQUENCY_COLUMNS[found[0]]
         frequencies, how = content[found[0]], f"G (F x p x m) with {found[0]}"
-        variance = content.get("variance")
+        variance, coherence = content.get("variance"), content.get("coherence")
         names = [_mat_names(content[n]) if n in content else None for n in ("output_names", "input_names")]
         if G.ndim != 3:
             raise DataError(f"{source}: G must have shape (F, p, m), got {G.shape}")
@@ -155,7 +167,7 @@ def _read_mat(path: str | Path, source: str, Ts: float | None) -> tuple[Frequenc
         response = np.asarray(content["ResponseData"])
         if response.ndim != 3:
             raise DataError(f"{source}: ResponseData must have shape (p, m, F), got {response.shape}")
-        G, frequencies, variance = response.transpose(2, 0, 1), content["Frequency"], None
+        G, frequencies, variance, coherence = response.transpose(2, 0, 1), content["Frequency"], None, None
         stated = _mat_text(content["FrequencyUnit"]) if "FrequencyUnit" in content else "rad/s"
         if stated.lower() not in ("hz", "rad/s", "rad/timeunit"):
             raise DataError(f"{source}: FrequencyUnit {stated!r} is neither 'Hz' nor 'rad/s'")
@@ -167,13 +179,16 @@ def _read_mat(path: str | Path, source: str, Ts: float | None) -> tuple[Frequenc
                         f"(p x m x F) with Frequency; it holds {', '.join(sorted(listed)) or 'no variable'}")
     try:
         data = FrequencyData(np.asarray(frequencies, dtype=float).ravel(), G, unit=unit, Ts=Ts, variance=variance,
-                             output_names=names[0], input_names=names[1])
+                             output_names=names[0], input_names=names[1], coherence=coherence, averages=averages)
     except DataError as exc:
         raise DataError(f"{source}: {exc}") from None
+    if coherence is not None:
+        how += " and coherence" + ("" if averages is None else f" (the variance from it and {averages} averages)")
     return data, how
 
 
-def read_frequency_data(path: str | Path, *, Ts: float | None = None, sep: str = ",") -> FrequencyData:
+def read_frequency_data(path: str | Path, *, Ts: float | None = None, sep: str = ",",
+                        averages: int | None = None) -> FrequencyData:
     """Read a table of frequency responses (CSV, or the first sheet of an ``.xlsx`` workbook)
     into :class:`FrequencyData`.
 
@@ -187,6 +202,9 @@ def read_frequency_data(path: str | Path, *, Ts: float | None = None, sep: str =
         continuous time.
     sep : str, default ","
         The column separator of a CSV table.
+    averages : int, optional
+        The spectra averaged per line behind the ``coh`` columns: the variance then follows
+        from the coherence (:class:`FrequencyData`); only with coherence and no ``var``/``sd``.
 
     Returns
     -------
@@ -225,7 +243,7 @@ def read_frequency_data(path: str | Path, *, Ts: float | None = None, sep: str =
     if not Path(path).is_file():
         raise DataError(f"{source}: no such file")
     if Path(path).suffix.lower() == ".mat":
-        data, how = _read_mat(path, source, Ts)
+        data, how = _read_mat(path, source, Ts, averages)
         warnings.warn(FrequencyConventionWarning(
             f"{source}: {how}; {data.p} output(s) ({', '.join(data.output_names)}) and {data.m} input(s) "
             f"({', '.join(data.input_names)}); "
@@ -250,22 +268,27 @@ def read_frequency_data(path: str | Path, *, Ts: float | None = None, sep: str =
     spread = _spread(pairs, source)
     G = np.empty((len(frame), len(outputs), len(inputs)), dtype=complex)
     variance = None if spread is None else np.empty(G.shape)
+    coherence = np.empty(G.shape) if _has_coherence(pairs, source) else None
     for (output, input_), parts in pairs.items():
         first, second = (_numbers(frame, parts[part], source) for part in convention)
         G[:, outputs.index(output), inputs.index(input_)] = _complex(first, second, convention)
         if variance is not None:
             variance[:, outputs.index(output), inputs.index(input_)] = SPREADS[spread](
                 _numbers(frame, parts[spread], source))
+        if coherence is not None:
+            coherence[:, outputs.index(output), inputs.index(input_)] = _numbers(frame, parts[COHERENCE], source)
     unit = FREQUENCY_COLUMNS[frequency.strip().lower()]
     try:
         data = FrequencyData(_numbers(frame, frequency, source), G, unit=unit, Ts=Ts, variance=variance,
-                             output_names=outputs, input_names=inputs)
+                             output_names=outputs, input_names=inputs, coherence=coherence, averages=averages)
     except DataError as exc:
         raise DataError(f"{source}: {exc}") from None
     warnings.warn(FrequencyConventionWarning(
         f"{source}: frequencies in {unit} from column {frequency!r}; responses as {CONVENTIONS[convention]}"
         + ("" if spread is None else f", each line's {'variance' if spread == 'var' else 'standard deviation'} "
                                      f"from the '{spread}' columns,")
+        + ("" if coherence is None else " with the coherence of each line from the 'coh' columns"
+           + ("" if averages is None else f" (the variance from it and {averages} averages)") + ",")
         + f" for {len(outputs)} output(s) ({', '.join(outputs)}) and {len(inputs)} input(s) ({', '.join(inputs)}); "
         f"{'continuous time' if Ts is None else f'discrete time, Ts = {Ts:g}'}"), stacklevel=2)
     return data

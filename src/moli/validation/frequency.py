@@ -89,7 +89,7 @@ def empirical_frequency_response(
     >>> bool(abs(H[0, 0, 0] - exact[0, 0, 0]) < 0.05 * abs(exact[0, 0, 0]))
     True
     """
-    omega_, response, _ = _welch(data, omega, nperseg)
+    omega_, response, _, _ = _welch(data, omega, nperseg)
     return EmpiricalResponse(omega_, response)
 
 
@@ -102,7 +102,11 @@ def spectral_frequency_data(data: IOData, nperseg: int | None = None) -> Frequen
     ``var G_ij = S_vv,ii [S_uu^-1]_jj / K_eff`` (Bendat and Piersol), with the noise spectrum
     ``S_vv = (S_yy - G S_uu G^H) K_eff / (K_eff - m)`` and Welch's equivalent number of
     segments ``K_eff = K / (1 + 2 rho^2 (K - 1) / K)``, ``rho`` the window's overlap correlation
-    (1/6 for Hann at half overlap). Lines where the inputs have no power are left out.
+    (1/6 for Hann at half overlap). Lines where the inputs have no power are left out. The
+    coherence of each output is the share of its spectrum the inputs explain,
+    ``gamma_i^2 = (G S_uu G^H)_ii / S_yy,ii`` (with one input the ordinary coherence
+    ``|S_yu|^2 / (S_yy S_uu)``; with several, the multiple coherence of the output, given on
+    each of its pairs).
 
     Parameters
     ----------
@@ -114,7 +118,8 @@ def spectral_frequency_data(data: IOData, nperseg: int | None = None) -> Frequen
     Returns
     -------
     FrequencyData
-        Discrete time (``data.Ts``), at the segment's DFT frequencies.
+        Discrete time (``data.Ts``), at the segment's DFT frequencies, with its variance
+        and coherence.
 
     Examples
     --------
@@ -126,17 +131,19 @@ def spectral_frequency_data(data: IOData, nperseg: int | None = None) -> Frequen
     >>> frf.variance.shape == frf.G.shape
     True
     """
-    omega, response, variance = _welch(data, None, nperseg)
+    omega, response, variance, coherence = _welch(data, None, nperseg)
     kept = np.all(np.isfinite(response), axis=(1, 2)) & np.all(variance > 0, axis=(1, 2))
     if not kept.any():
         raise DataError("the inputs have no power at any frequency of the spectral estimate")
     return FrequencyData(omega[kept], response[kept], unit="rad/s", Ts=data.Ts, variance=variance[kept],
-                         output_names=data.output_names, input_names=data.input_names)
+                         output_names=data.output_names, input_names=data.input_names,
+                         coherence=np.clip(coherence[kept], 0.0, 1.0))
 
 
 def _welch(data: IOData, omega: object | None,
-           nperseg: int | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Frequencies, the H1 estimate and its variance per entry (NaN where ``S_uu`` is singular)."""
+           nperseg: int | None) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Frequencies, the H1 estimate, its variance per entry and each output's coherence on its pairs
+    (NaN where ``S_uu`` is singular)."""
     if not isinstance(data, IOData):
         raise DataError(f"data must be an IOData, got {type(data).__name__}")
     require_one_segment(data, "empirical_frequency_response (Welch spectra)")
@@ -182,13 +189,15 @@ def _welch(data: IOData, omega: object | None,
     # Welch's equivalent number of segments: neighbours share the window's overlap, correlation rho
     rho = float(window[step:] @ window[:-step] / (window @ window)) if step > 0 else 0.0
     effective = count / (1.0 + 2.0 * rho ** 2 * (count - 1) / count)
-    variance = np.full((w.size, p, m), np.nan)
+    variance, coherence = np.full((w.size, p, m), np.nan), np.full((w.size, p, m), np.nan)
+    G = response[usable]
+    S_yy = np.real(np.einsum("kif,kif->fi", spectra[:, :p], spectra[:, :p].conj()))[usable] / count
+    explained = np.real(np.einsum("fii->fi", G @ S_uu[usable] @ G.conj().transpose(0, 2, 1)))
+    with np.errstate(divide="ignore", invalid="ignore"):        # an output without power has no coherence
+        coherence[usable] = (explained / S_yy)[:, :, None]
     if effective > m:
-        G = response[usable]
-        S_yy = np.einsum("kaf,kbf->fab", spectra[:, :p], spectra[:, :p].conj())[usable] / count
-        noise = np.real(np.einsum("fii->fi", S_yy - G @ S_uu[usable] @ G.conj().transpose(0, 2, 1)))
-        noise = np.maximum(noise, 0.0) * effective / (effective - m)
+        noise = np.maximum(S_yy - explained, 0.0) * effective / (effective - m)
         # diag(S_uu^-1) per line, by a solve with the identity (S_uu is m x m and well conditioned here)
         inverse = np.real(np.einsum("fjj->fj", np.linalg.solve(S_uu[usable], np.eye(m)[None])))
         variance[usable] = noise[:, :, None] * inverse[:, None, :] / effective
-    return w, response, variance
+    return w, response, variance, coherence

@@ -23,7 +23,7 @@ import numpy as np
 
 from .modal_form import ModalLayout, split
 
-__all__ = ["FitProblem", "LINE_CHUNK", "response", "cost", "normal_equations", "score_spread"]
+__all__ = ["FitProblem", "LINE_CHUNK", "response", "cost", "normal_equations", "score_spread", "weighted_jacobian"]
 
 # Lines per pass block: the (chunk, p, m, size) complex Jacobian stays at a few megabytes.
 LINE_CHUNK = 256
@@ -144,3 +144,10 @@ def score_spread(layout: ModalLayout, theta: np.ndarray, problem: FitProblem) ->
             "fpmt,fpm->ft", jacobian.imag, residual.imag)
         meat += scores.T @ scores
     return meat
+
+
+def weighted_jacobian(layout: ModalLayout, theta: np.ndarray, problem: FitProblem,
+                      part: slice) -> tuple[np.ndarray, np.ndarray]:
+    """The weighted Jacobian (lines, p, m, size), complex, and residual (lines, p, m) on the lines ``part``,
+    for fits that add parameters of their own (:mod:`moli.method.frequency.delays`)."""
+    return _weighted(layout, theta, problem, part)

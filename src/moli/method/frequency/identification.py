@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
@@ -25,6 +25,7 @@ from ...models.continuous import ContinuousModel
 from ...models.statespace import StateSpaceModel
 from ..options import IdentifyOptions
 from ..selection.order_rules import select_by_shares
+from .delays import DelayFit, compensated, fit_delays, forced_delays, with_delays
 from .modal_form import matrices
 from .moli_start import with_moli_start
 from .orders import FitDomain, FrequencyStep, fit_domain, fit_order, problem_on, subspace_basis
@@ -100,6 +101,14 @@ def _physical(data: FrequencyData, domain: FitDomain, matrices_: tuple[np.ndarra
                            info=info)
 
 
+def _delayed(result: FrequencyResult, found: DelayFit, options: IdentifyOptions, start_time: float) -> FrequencyResult:
+    """``result`` (of the lines compensated by the delays found) with its models carrying them."""
+    info = {"delays_estimated": list(found.estimated)} if options.delays == "auto" else {}
+    return replace(result, model=with_delays(result.model, found.delays, info), options=options,
+                   path_models=[with_delays(each, found.delays) for each in result.path_models],
+                   seconds=time.perf_counter() - start_time)
+
+
 def _check_size(data: FrequencyData, estimation_lines: int, nmax: int) -> None:
     # the subspace step needs more real columns than rows, the refinement more equations than parameters
     rows = (nmax + 1) * (data.m + data.p)
@@ -124,6 +133,10 @@ def identify_frequency(
             raise OptionError(f"{name} must be a callable, got {type(hook).__name__}")
     domain = fit_domain(data)
     settings = frequency_settings(options, domain.continuous, data.p)
+    forced = forced_delays(data, settings)
+    if forced is not None:          # whole samples given: the path runs on the lines they compensate
+        return _delayed(identify_frequency(compensated(data, np.array(forced.delays)), None,
+                                           options.replace(delays=0), progress, phase), forced, options, start_time)
     held_out = np.arange(HOLD_OUT_FIRST, data.F, HOLD_OUT_EVERY)
     kept = np.setdiff1d(np.arange(data.F), held_out)
     _check_size(data, kept.size, settings.nmax)
@@ -148,6 +161,14 @@ def identify_frequency(
     negligible = NEGLIGIBLE_SHARE * (100.0 - max(step.mean_vaf for step in eligible))
     index = 0 if settings.order is not None else select_by_shares(path, lambda i: path[i].shares, settings.z,
                                                                    negligible)
+    found = None
+    if settings.delays == "auto":
+        if phase is not None:
+            phase("delays")
+        found = fit_delays(data, domain, settings, held_out, path, index, negligible_share=NEGLIGIBLE_SHARE)
+        if any(found.delays):       # docs/frequency.md §4: the path again on the compensated lines
+            return _delayed(identify_frequency(compensated(data, np.array(found.delays)), None,
+                                               options.replace(delays=0), None, phase), found, options, start_time)
     step = path[index]
     whole = problem_on(data, domain)
     theta, note, factor = step.theta, None, None
@@ -167,6 +188,8 @@ def identify_frequency(
                 if settings.refine == "none" else f"the held-out lines preferred the {origin} start to its refinement")
     info = {"method": f"frequency-domain {origin} start, weighted FRF refinement",
             "held_out_every": HOLD_OUT_EVERY, "order": step.order, "refined": refined}
+    if found is not None:
+        info["delays_estimated"] = list(found.estimated)
     model = _physical(data, domain, matrices(step.layout, theta), factor, info)
     if not model.is_stable():          # only with max_radius=None: the refinement keeps the bound otherwise
         worst = (f"largest real part {np.max(model.poles().real):.4g}" if domain.continuous
