@@ -30,7 +30,6 @@ from ..tuning.barycenter import GRIDS, TUNING_METHODS
 __all__ = ["IdentifyOptions"]
 
 
-
 @dataclass(frozen=True)
 class IdentifyOptions:
     """Every choice of an identification (see docs/method.md for the method).
@@ -87,9 +86,8 @@ class IdentifyOptions:
     output_filters : bool, default True
         Re-tune each output's filter cutoff of every path model on J (docs/method.md §11).
     screen_lists : bool, default False
-        Rank the greedy step's candidate lists by J at the filter of the list they raise
-        (one least squares each) and tune the filter of the best one only, instead of tuning
-        every candidate (docs/method.md §5, "Screened steps").
+        The greedy step tunes only the candidate of lowest J at the filter of the list it
+        raises (docs/method.md §5, "Screened steps").
     feedthrough : {True, False, "auto"}, default "auto"
         Direct feedthrough ``D``; "auto" keeps it per output where a nested F-test on
         the estimation data finds it significant (docs/method.md §8).
@@ -142,8 +140,8 @@ class IdentifyOptions:
     delays : int, sequence of int or "auto", default 0
         Dead time of each input in samples (one int: every input): the model is
         estimated on the shifted inputs and carries them (``model.input_delays``).
-        "auto": per input, the smallest over the outputs of
-        :func:`moli.estimate_delays` on the estimation record (docs/diagnostics.md §3).
+        "auto": per input, the least over the outputs of :func:`moli.estimate_delays` on
+        the estimation record (docs/diagnostics.md §3).
     search_samples : int or None, default 32768
         On a longer estimation record, the filter tuning, the greedy path, the
         refinement and the noise model run on its first ``search_samples`` samples, and
@@ -179,9 +177,9 @@ class IdentifyOptions:
         docs/regularization.md), which reads ``nmax``, ``x0``, ``center`` and ``feedthrough``.
     frequency_start : {"subspace", "both"}, default "subspace"
         Frequency data only: each order's model grows from the frequency-domain subspace
-        start, or from it and the MOLI start on the frequency grid, both refined and the
-        better on the held-out lines kept (docs/frequency.md §2b: on the benchmark "both"
-        changed no figure and doubled the time, so it is not the default).
+        start, or from it and the MOLI start on the frequency grid, the better refined
+        model on the held-out lines kept (docs/frequency.md §2b: "both" changed no figure
+        and doubled the time).
 
     Examples
     --------
@@ -307,14 +305,8 @@ class IdentifyOptions:
         selected model keeps its early stop (``polish_selected=False``); every other choice is
         the default's, the noise model and its bands included. Its mean validation VAF, paired
         over the 119 cases of the generalization benchmark, is 0.05, 0.27 and 0.14 points below
-        the default's on seeds 0, 1 and 2, within the 0.3 points a preset may lose, at 0.6 of
-        the default's seconds per case (docs/accuracy.md, "The fast preset"; with the orders
-        below it lost 0.13 on seed 0 at 0.94 of the time; with the selected model's optimum it
-        lost 0.00, 0.25 and 0.09 at 0.62-0.77 of the time).
-        Five steps: seed 0 first chose two (0.77 of the time), which lost 0.36 points on seed
-        1; five was the next candidate of seed 0. Smaller filter grids were
-        cheaper but lost a DaISy record by tens of points; refining with the ridge of 1 alone
-        left the gain bands too narrow (with the ridge's penalty then in their covariance).
+        the default's on seeds 0, 1 and 2, at 0.6 of the default's seconds per case; how it was
+        chosen, and what the other candidates lost, is in docs/accuracy.md, "The fast preset".
 
         Parameters
         ----------
