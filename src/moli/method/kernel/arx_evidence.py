@@ -16,7 +16,7 @@ import scipy.linalg
 from .empirical_bayes import (FTOL, LOG_RANGE, MAX_ITERATIONS, START_DECAYS, OutputFit, fit_output,
                               neg_log_likelihood, posterior)
 from .fir_rows import FirFactor
-from .kernels import ARTANH_BOUND, LOGIT_BOUND, hyperparameter_count, kernel_matrix, square_root
+from .kernels import ARTANH_BOUND, LOGIT_BOUND, hyperparameter_count, kernel_root
 
 __all__ = ["fit_arx_output"]
 
@@ -25,7 +25,7 @@ def _root(kind: str, lags: np.ndarray, x: np.ndarray, blocks: tuple[int, int]) -
     """The block-diagonal prior square root: ``blocks[0]`` output polynomials sharing the first
     kernel of ``x``, then ``blocks[1]`` input polynomials sharing the second."""
     size = hyperparameter_count(kind)
-    roots = [square_root(kernel_matrix(kind, lags, x[i * size:(i + 1) * size])) for i in range(2)]
+    roots = [kernel_root(kind, lags, x[i * size:(i + 1) * size]) for i in range(2)]
     return scipy.linalg.block_diag(*([roots[0]] * blocks[0] + [roots[1]] * blocks[1]))
 
 

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.linalg
 
+from ...numerics.triangular import tall_factor
 from .fir_rows import FirFactor
 from .kernels import ARTANH_BOUND, LOGIT_BOUND, hyperparameter_count, kernel_root
 
@@ -54,7 +55,12 @@ class OutputFit:
 
 def _root(kind: str, lags: np.ndarray, coordinates: list[np.ndarray]) -> np.ndarray:
     """The block-diagonal square root of the prior of every input's coefficients."""
-    return scipy.linalg.block_diag(*[kernel_root(kind, lags, z) for z in coordinates])
+    roots = [kernel_root(kind, lags, z) for z in coordinates]
+    size = lags.size
+    L = np.zeros((size * len(roots), size * len(roots)))
+    for i, root in enumerate(roots):
+        L[i * size:(i + 1) * size, i * size:(i + 1) * size] = root
+    return L
 
 
 def _posterior_factor(factor: FirFactor, j: int, L: np.ndarray, sigma: float) -> np.ndarray:
@@ -63,7 +69,7 @@ def _posterior_factor(factor: FirFactor, j: int, L: np.ndarray, sigma: float) ->
     stacked[:d, :d] = factor.R1 @ L
     stacked[:d, d] = factor.r2[:, j]
     stacked[d:, :d] = sigma * np.eye(d)
-    return scipy.linalg.qr(stacked, mode="r")[0][: d + 1]
+    return tall_factor(stacked)[: d + 1]
 
 
 def neg_log_likelihood(factor: FirFactor, j: int, L: np.ndarray, sigma2: float) -> float:
