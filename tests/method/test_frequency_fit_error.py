@@ -66,7 +66,7 @@ def test_the_paths_refinements_work_on_at_most_path_lines_and_the_selected_model
 
 
 def test_with_given_variances_a_sharp_modes_standard_deviation_does_not_follow_the_noise_draw():
-    # The 10 rad/s mode (damping 0.5 %) has about 3 of the 1000 lines in its half-power band. With the
+    # The 10 rad/s mode (damping 0.5 %) has about 2 of the 1000 lines in its half-power band. With the
     # variances given, the standard deviation of its natural frequency depends on the draw only
     # through the estimate (relative errors near 1e-4) and the one scale of the residual, estimated
     # from 4000 real terms (its square root off by about 1 % of itself): its spread over 12 draws
