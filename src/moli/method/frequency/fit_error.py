@@ -11,21 +11,26 @@ With ``R(s) = (s I - A)^-1`` block diagonal (a pair's block ``[[a, b], [-b, a]]`
   ``Q``'s row ``k``; ``dG / d D_ij`` = ``e_i e_j'``.
 
 The residual of line ``k`` is ``w_k * (G(s_k) - G_k)`` entry by entry, real and imaginary
-parts as separate rows. Lines are taken :data:`LINE_CHUNK` at a time, and only ``J^T J``
-and ``J^T r`` (size x size) are kept: memory does not grow with the lines.
+parts as separate rows. ``G_ij`` depends on the poles, ``B[:, j]``, ``C[i, :]`` and ``D[i, j]``
+only, so its rows are formed on those columns alone (:func:`entry_parameters`). Lines are
+taken :data:`LINE_CHUNK` at a time, and only ``J^T J`` and ``J^T r`` (size x size) are kept:
+memory does not grow with the lines.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Iterator
 
 import numpy as np
 
 from .modal_form import ModalLayout, split
 
-__all__ = ["FitProblem", "LINE_CHUNK", "response", "cost", "normal_equations", "score_spread", "weighted_jacobian"]
+__all__ = ["FitProblem", "LINE_CHUNK", "response", "cost", "entry_parameters", "normal_equations", "score_spread",
+           "weighted_jacobian"]
 
-# Lines per pass block: the (chunk, p, m, size) complex Jacobian stays at a few megabytes.
+# Lines per pass block: the (chunk, p, m, poles) pole derivatives and an entry's (chunk, 3 n + 1) rows
+# stay within a few megabytes.
 LINE_CHUNK = 256
 
 
@@ -80,53 +85,82 @@ def cost(layout: ModalLayout, theta: np.ndarray, problem: FitProblem) -> float:
     return total if np.isfinite(total) else np.inf
 
 
-def _jacobian(layout: ModalLayout, P: np.ndarray, Q: np.ndarray) -> np.ndarray:
-    """``dG / d theta`` on a block of lines, shape (F, p, m, size), complex."""
-    F, p, m, n, c, r = P.shape[0], layout.p, layout.m, layout.n, layout.pairs, layout.reals
-    out = np.zeros((F, p, m, layout.size), dtype=complex)
-    pair_P, pair_Q = P[:, :, :2 * c].reshape(F, p, c, 2), Q[:, :2 * c].reshape(F, c, 2, m)
-    out[..., :c] = np.einsum("fpck,fckm->fpmc", pair_P, pair_Q)
-    first, second = pair_P[..., 0][:, :, None], pair_P[..., 1][:, :, None]                      # (F, p, 1, c)
-    upper, lower = pair_Q[:, :, 0].transpose(0, 2, 1)[:, None], pair_Q[:, :, 1].transpose(0, 2, 1)[:, None]
-    out[..., c:2 * c] = first * lower - second * upper                                        # P_i J Q_i
-    out[..., 2 * c:2 * c + r] = P[:, :, None, 2 * c:] * Q[:, 2 * c:].transpose(0, 2, 1)[:, None]
-    start = layout.poles
-    for j in range(m):                      # B[k, j] moves column j by P's column k
-        out[:, :, j, start + j: start + n * m: m] = P
-    start += n * m
-    for i in range(p):                      # C[i, k] moves row i by Q's row k
-        out[:, i, :, start + i * n: start + (i + 1) * n] = Q.transpose(0, 2, 1)
-    if layout.feedthrough:
-        start += p * n
-        for i in range(p):
-            for j in range(m):
-                out[:, i, j, start + i * m + j] = 1.0
+def _pole_derivatives(layout: ModalLayout, P: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """``dG / d(sigma, omega, lambda)`` on a block of lines, shape (F, p, m, poles), complex."""
+    F, c = P.shape[0], layout.pairs
+    out = np.empty((F, layout.p, layout.m, layout.poles), dtype=complex)
+    first, second = P[:, :, None, 0:2 * c:2], P[:, :, None, 1:2 * c:2]                          # (F, p, 1, c)
+    upper = Q[:, 0:2 * c:2].transpose(0, 2, 1)[:, None]                                          # (F, 1, m, c)
+    lower = Q[:, 1:2 * c:2].transpose(0, 2, 1)[:, None]
+    out[..., :c] = first * upper + second * lower                                              # P_i Q_i
+    out[..., c:2 * c] = first * lower - second * upper                                         # P_i J Q_i
+    out[..., 2 * c:] = P[:, :, None, 2 * c:] * Q[:, 2 * c:].transpose(0, 2, 1)[:, None]
     return out
 
 
-def _weighted(layout: ModalLayout, theta: np.ndarray, problem: FitProblem, part: slice) -> tuple[np.ndarray, ...]:
+def entry_parameters(layout: ModalLayout) -> list[tuple[int, int, np.ndarray]]:
+    """``(i, j, columns)`` per output ``i`` and input ``j``: the entries of theta that move ``G_ij``.
+
+    They are the poles, ``B[:, j]``, ``C[i, :]`` and ``D[i, j]``, ``3 n + 1`` of the
+    ``n (1 + m + p) + p m``; the Jacobian's other entries in ``G_ij``'s rows are zero.
+    """
+    n, p, m, poles = layout.n, layout.p, layout.m, layout.poles
+    out = []
+    for i in range(p):
+        for j in range(m):
+            columns = [np.arange(poles), poles + m * np.arange(n) + j, poles + n * m + i * n + np.arange(n)]
+            if layout.feedthrough:
+                columns.append(np.array([poles + n * m + p * n + i * m + j]))
+            out.append((i, j, np.concatenate(columns)))
+    return out
+
+
+def _entry_blocks(layout: ModalLayout, theta: np.ndarray, problem: FitProblem,
+                  part: slice) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per output/input entry on a block of lines: its columns of theta, the real rows of the weighted
+    Jacobian restricted to them (real parts of the lines, then imaginary) and of the weighted residual."""
     P, Q, model = _resolvent_products(layout, theta, problem.points[part])
     weights = problem.weights[part]
-    return _jacobian(layout, P, Q) * weights[..., None], weights * (model - problem.G[part])
+    residual = weights * (model - problem.G[part])
+    poles = _pole_derivatives(layout, P, Q)
+    lines = P.shape[0]
+    for i, j, columns in entry_parameters(layout):
+        block = np.empty((lines, columns.size), dtype=complex)
+        block[:, :layout.poles] = poles[:, i, j]
+        block[:, layout.poles:layout.poles + layout.n] = P[:, i]
+        block[:, layout.poles + layout.n:layout.poles + 2 * layout.n] = Q[:, :, j]
+        if layout.feedthrough:
+            block[:, -1] = 1.0
+        block *= weights[:, i, j, None]
+        yield (columns, np.concatenate([block.real, block.imag]),
+               np.concatenate([residual[:, i, j].real, residual[:, i, j].imag]))
 
 
 def normal_equations(layout: ModalLayout, theta: np.ndarray,
                      problem: FitProblem) -> tuple[np.ndarray, np.ndarray, float]:
     """``J^T J``, ``J^T r`` (real and imaginary rows together) and the cost ``|r|^2``, in one pass over the lines.
 
-    The size x size products are all that is kept; a step's accuracy needs no more, as the
-    residual of the fit, not the step's round-off, sets the estimate (the steps continue
-    until the cost stops falling).
+    Each entry ``G_ij``'s rows enter through the ``3 n + 1`` parameters that move it
+    (:func:`entry_parameters`): ``(3 n + 1)^2`` products per row instead of a dense row's
+    ``(n (1 + m + p) + p m)^2``, a quarter of them at two inputs and three outputs. The size x size
+    products are all that is kept; a step's accuracy needs no more, as the residual of the
+    fit, not the step's round-off, sets the estimate (the steps continue until the cost
+    stops falling).
     """
-    curvature, gradient, total = np.zeros((layout.size, layout.size)), np.zeros(layout.size), 0.0
+    entries = entry_parameters(layout)
+    blocks = [np.zeros((columns.size, columns.size)) for _, _, columns in entries]
+    gradients = [np.zeros(columns.size) for _, _, columns in entries]
+    total = 0.0
     for start in problem.chunks():
-        jacobian, residual = _weighted(layout, theta, problem, slice(start, start + LINE_CHUNK))
-        rows = jacobian.reshape(-1, layout.size)
-        stacked = np.concatenate([rows.real, rows.imag])
-        curvature += stacked.T @ stacked
-        flat = residual.ravel()
-        gradient += stacked.T @ np.concatenate([flat.real, flat.imag])
-        total += float(np.sum(np.abs(residual) ** 2))
+        part = slice(start, start + LINE_CHUNK)
+        for k, (_, rows, residual) in enumerate(_entry_blocks(layout, theta, problem, part)):
+            blocks[k] += rows.T @ rows
+            gradients[k] += rows.T @ residual
+            total += float(residual @ residual)
+    curvature, gradient = np.zeros((layout.size, layout.size)), np.zeros(layout.size)
+    for (_, _, columns), block, part in zip(entries, blocks, gradients):
+        curvature[np.ix_(columns, columns)] += block
+        gradient[columns] += part
     return curvature, gradient, total
 
 
@@ -139,9 +173,12 @@ def score_spread(layout: ModalLayout, theta: np.ndarray, problem: FitProblem) ->
     """
     meat = np.zeros((layout.size, layout.size))
     for start in problem.chunks():
-        jacobian, residual = _weighted(layout, theta, problem, slice(start, start + LINE_CHUNK))
-        scores = np.einsum("fpmt,fpm->ft", jacobian.real, residual.real) + np.einsum(
-            "fpmt,fpm->ft", jacobian.imag, residual.imag)
+        part = slice(start, start + LINE_CHUNK)
+        lines = problem.points[part].size
+        scores = np.zeros((lines, layout.size))
+        for columns, rows, residual in _entry_blocks(layout, theta, problem, part):
+            products = rows * residual[:, None]
+            scores[:, columns] += products[:lines] + products[lines:]
         meat += scores.T @ scores
     return meat
 

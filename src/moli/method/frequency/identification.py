@@ -181,7 +181,7 @@ def identify_frequency(
                              radius=settings.radius).theta
         if phase is not None:
             phase("covariance")
-        factor = covariance_factor(step.layout, theta, whole)
+        factor = covariance_factor(step.layout, theta, whole, given_variance=data.variance is not None)
         note = None if factor is not None else "the refinement's Jacobian has no rank to spare beyond its gauge"
     else:
         note = (f"refine='none' keeps the {origin} estimate, which is no minimum of the fit: no sandwich"

@@ -7,12 +7,14 @@ their own scales). A step is taken where it lowers the cost and keeps every pole
 shrinks toward the gradient's. The refinement stops when a step lowers the cost by less
 than :data:`RELATIVE_DECREASE` of it, or after :data:`MAX_STEPS` Jacobians.
 
-Around the minimum, ``theta_hat - theta ~ -(J^T J)^+ J^T r``, so
-``Cov(theta_hat) = (J^T J)^+ (sum_k s_k s_k^T) (J^T J)^+`` with ``s_k`` each line's score;
-the pseudo-inverse drops the modal form's gauge directions (along which nothing is
-estimated). With ``J^T J = V S^2 V^T`` over the identifiable directions,
-``Cov = V S^-2 V^T M V S^-2 V^T``, and its factor in ``vec[A, B, C, D]`` is
-``T V S^-2 V^T L`` with ``M = L L^T`` and ``T = d vec / d theta``.
+Around the minimum, ``theta_hat - theta ~ -(J^T J)^+ J^T r``; the pseudo-inverse drops the
+modal form's gauge directions (along which nothing is estimated). With ``J^T J = V S^2 V^T``
+over the identifiable directions and ``T = d vec / d theta``: where the data give their
+variances, every weighted real term has one variance ``s^2`` and ``Cov = s^2 V S^-2 V^T``,
+factor ``s T V S^-1``; otherwise the sandwich ``Cov = (J^T J)^+ (sum_k s_k s_k^T) (J^T J)^+``
+with ``s_k`` each line's score, ``V S^-2 V^T M V S^-2 V^T``, factor ``T V S^-2 V^T L`` with
+``M = L L^T``. The first takes a lightly damped mode's variance from the given variances of its
+few lines; the second from those lines' residuals, a noisy estimate (docs/frequency.md §5).
 """
 
 from __future__ import annotations
@@ -81,18 +83,27 @@ def refine_modal(layout: ModalLayout, theta: np.ndarray, problem: FitProblem, *,
     return Refined(theta, current, steps)
 
 
-def covariance_factor(layout: ModalLayout, theta: np.ndarray, problem: FitProblem) -> np.ndarray | None:
-    """``F`` with ``cov(vec[A, B, C, D]) = F F^T`` (the sandwich), or None where the fit leaves no information.
+def covariance_factor(layout: ModalLayout, theta: np.ndarray, problem: FitProblem, *,
+                      given_variance: bool = False) -> np.ndarray | None:
+    """``F`` with ``cov(vec[A, B, C, D]) = F F^T``, or None where the fit leaves no information.
 
-    The directions dropped are the :attr:`ModalLayout.gauge` ones of least curvature,
-    which carry no information by construction.
+    With ``given_variance`` (the weights are the data's ``1 / sqrt(variance)``), the
+    covariance is ``s^2 (J^T J)^+`` with ``s^2`` the weighted residual's variance per real
+    row, ``|r|^2 / (rows - identifiable parameters)``: the variances give each line's share,
+    and the one scale is estimated from every line. Otherwise it is the sandwich, whose
+    meat takes each line's share from its own residual. The directions dropped are the
+    :attr:`ModalLayout.gauge` ones of least curvature, which carry no information by
+    construction.
     """
-    curvature = normal_equations(layout, theta, problem)[0]
+    curvature, _, total = normal_equations(layout, theta, problem)
     values, vectors = np.linalg.eigh(curvature)                          # ascending: the gauge first
     kept = layout.size - layout.gauge
     if kept <= 0 or values[layout.gauge] <= np.finfo(float).eps * values[-1] * layout.size:
         return None
     V = vectors[:, layout.gauge:]                                        # identifiable directions
+    if given_variance:
+        residual_variance = total / (2 * problem.G.size - kept)          # per real term: real and imaginary rows
+        return matrix_jacobian(layout) @ (V * np.sqrt(residual_variance / values[layout.gauge:]))
     bread = V / values[layout.gauge:]                                    # V S^-2, then times V^T
     meat = score_spread(layout, theta, problem)
     inner = V.T @ meat @ V                                               # V^T M V (kept x kept), symmetric
