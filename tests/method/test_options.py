@@ -105,14 +105,14 @@ def test_presets_show_what_they_set():
         IdentifyOptions.preset("quick")
 
 
-def test_the_fast_preset_is_the_default_with_a_shorter_refinement_and_no_polishes_of_its_own():
+def test_the_fast_preset_is_the_default_with_screened_steps_a_shorter_refinement_and_no_polishes():
     fast = IdentifyOptions.preset("fast")
-    assert fast == IdentifyOptions.fast() == IdentifyOptions(refine_iterations=5, lower_orders=False,
-                                                             polish_selected=False)
-    # three choices differ from the default; the refinement stays guarded and the result
+    assert fast == IdentifyOptions.fast() == IdentifyOptions(screen_lists=True, refine_iterations=5,
+                                                             lower_orders=False, polish_selected=False)
+    # four choices differ from the default; the refinement stays guarded and the result
     # keeps its noise model (and so its bands and predictions)
     changed = {k for k, v in fast.to_dict().items() if IdentifyOptions().to_dict()[k] != v}
-    assert changed == {"refine_iterations", "lower_orders", "polish_selected"}
+    assert changed == {"screen_lists", "refine_iterations", "lower_orders", "polish_selected"}
     assert (fast.refine, fast.noise_model, fast.filter_grid) == ("guarded", True, "wide")
     # a change given beside the preset wins over the preset's own value
     assert IdentifyOptions.fast(refine_iterations=7, nmax=6).refine_iterations == 7

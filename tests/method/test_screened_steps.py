@@ -58,7 +58,7 @@ def test_screened_identification_recovers_a_noise_free_plant(seed):
         warnings.simplefilter("ignore")
         # no centring (the record's means are not the plant's operating point) and the
         # validation's initial state estimated: the least squares of the true list is then exact
-        result = moli.identify(est, val, nmax=8, preset="fast", screen_lists=True, center=False, x0="estimate")
+        result = moli.identify(est, val, nmax=8, preset="fast", center=False, x0="estimate")
     assert result.model.n == 6
     w = np.linspace(0.01, np.pi, 100)
     truth = moli.StateSpaceModel(A, B, C).frequency_response(w)

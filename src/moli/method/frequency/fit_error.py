@@ -115,13 +115,8 @@ def entry_parameters(layout: ModalLayout) -> list[tuple[int, int, np.ndarray]]:
     return out
 
 
-def _entry_blocks(layout: ModalLayout, theta: np.ndarray, problem: FitProblem,
-                  part: slice) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-    """Per output/input entry on a block of lines: its columns of theta, the real rows of the weighted
-    Jacobian restricted to them (real parts of the lines, then imaginary) and of the weighted residual."""
-    P, Q, model = _resolvent_products(layout, theta, problem.points[part])
-    weights = problem.weights[part]
-    residual = weights * (model - problem.G[part])
+def _entry_columns(layout: ModalLayout, P: np.ndarray, Q: np.ndarray) -> Iterator[tuple[int, int, np.ndarray, np.ndarray]]:
+    """Per output/input entry on a block of lines: ``(i, j, columns, dG_ij / d theta[columns])``, complex, unweighted."""
     poles = _pole_derivatives(layout, P, Q)
     lines = P.shape[0]
     for i, j, columns in entry_parameters(layout):
@@ -131,6 +126,17 @@ def _entry_blocks(layout: ModalLayout, theta: np.ndarray, problem: FitProblem,
         block[:, layout.poles + layout.n:layout.poles + 2 * layout.n] = Q[:, :, j]
         if layout.feedthrough:
             block[:, -1] = 1.0
+        yield i, j, columns, block
+
+
+def _entry_blocks(layout: ModalLayout, theta: np.ndarray, problem: FitProblem,
+                  part: slice) -> Iterator[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per output/input entry on a block of lines: its columns of theta, the real rows of the weighted
+    Jacobian restricted to them (real parts of the lines, then imaginary) and of the weighted residual."""
+    P, Q, model = _resolvent_products(layout, theta, problem.points[part])
+    weights = problem.weights[part]
+    residual = weights * (model - problem.G[part])
+    for i, j, columns, block in _entry_columns(layout, P, Q):
         block *= weights[:, i, j, None]
         yield (columns, np.concatenate([block.real, block.imag]),
                np.concatenate([residual[:, i, j].real, residual[:, i, j].imag]))
@@ -187,4 +193,9 @@ def weighted_jacobian(layout: ModalLayout, theta: np.ndarray, problem: FitProble
                       part: slice) -> tuple[np.ndarray, np.ndarray]:
     """The weighted Jacobian (lines, p, m, size), complex, and residual (lines, p, m) on the lines ``part``,
     for fits that add parameters of their own (:mod:`moli.method.frequency.delays`)."""
-    return _weighted(layout, theta, problem, part)
+    P, Q, model = _resolvent_products(layout, theta, problem.points[part])
+    weights = problem.weights[part]
+    jacobian = np.zeros((P.shape[0], layout.p, layout.m, layout.size), dtype=complex)
+    for i, j, columns, block in _entry_columns(layout, P, Q):
+        jacobian[:, i, j, columns] = block * weights[:, i, j, None]
+    return jacobian, weights * (model - problem.G[part])

@@ -299,14 +299,17 @@ class IdentifyOptions:
     def fast(cls, **changes: Any) -> "IdentifyOptions":
         """The default search made cheaper at a small, measured cost in fit.
 
-        Each refinement of the guarded refinement stops after five Levenberg-Marquardt steps
-        instead of ten (the generic list of the selected order still runs on to its optimum),
-        the orders below the selected one are not tried (``lower_orders=False``) and the
-        selected model keeps its early stop (``polish_selected=False``); every other choice is
-        the default's, the noise model and its bands included. Its mean validation VAF, paired
-        over the 119 cases of the generalization benchmark, is 0.05, 0.27 and 0.14 points below
-        the default's on seeds 0, 1 and 2, at 0.6 of the default's seconds per case; how it was
-        chosen, and what the other candidates lost, is in docs/accuracy.md, "The fast preset".
+        Each greedy step tunes the filter of one list, the candidate of lowest J at the filter
+        of the list it raises (``screen_lists=True``); each refinement of the guarded
+        refinement stops after five Levenberg-Marquardt steps instead of ten (the generic list
+        of the selected order still runs on to its optimum), the orders below the selected
+        one are not tried (``lower_orders=False``) and the selected model keeps its early
+        stop (``polish_selected=False``); every other choice is the default's, the noise
+        model and its bands included. Over the 119 cases of the generalization benchmark its
+        mean validation VAF is 0.35, 0.64 and 0.12 points below the default's on seeds 0, 1
+        and 2, and 1.9, 2.3 and 2.5 points above the best subspace peer's, at 1.5-2.3 times
+        the CPU of SIPPY's N4SID order sweep on four DaISy records (docs/accuracy.md, "The
+        fast preset"; docs/performance.md).
 
         Parameters
         ----------
@@ -316,8 +319,8 @@ class IdentifyOptions:
         Returns
         -------
         IdentifyOptions
-            The default options with ``refine_iterations=5``, ``lower_orders=False`` and
-            ``polish_selected=False``, then ``changes``.
+            The default options with ``screen_lists=True``, ``refine_iterations=5``,
+            ``lower_orders=False`` and ``polish_selected=False``, then ``changes``.
 
         Examples
         --------
