@@ -15,7 +15,6 @@ of the ARX coefficients' variance in the nominal model's coordinates).
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,12 +22,9 @@ import numpy as np
 from ...data.iodata import IOData
 from ...errors import DataError, OptionError
 from ...models.statespace import StateSpaceModel
-from ...validation.comparison import X0_CHOICES, compare, same_period
-from ..selection.order_rules import PAIRED_Z, select_by_shares
-from ..selection.paired_test import error_shares
 from .arx import RegularizedArx, regularized_arx
 from .balanced import balancing
-from .kernel_model import HOLDOUT_FRACTION, KernelStep
+from .validated_orders import KernelStep, checked_records, order_table, validated_orders
 
 __all__ = ["KernelArxResult", "identify_kernel_arx"]
 
@@ -54,11 +50,8 @@ class KernelArxResult:
 
     def summary(self) -> str:
         """The orders' validation VAFs and the selection, as text."""
-        lines = [f"kernel ARX model: {self.arx.kernel} prior, {self.arx.lags} lags per channel, "
-                 f"validation {self.validation_source}", "  order  mean VAF  stable"]
-        lines += [f"{'*' if i == self.selected_index else ' '} {step.order:5d}  {step.mean_vaf:8.2f}  {step.stable}"
-                  for i, step in enumerate(self.path)]
-        return "\n".join(lines)
+        return order_table(f"kernel ARX model: {self.arx.kernel} prior, {self.arx.lags} lags per channel, "
+                           f"validation {self.validation_source}", self.path, self.selected_index)
 
 
 def identify_kernel_arx(data: IOData, validation: IOData | None = None, *, kernel: str = "TC",
@@ -98,20 +91,9 @@ def identify_kernel_arx(data: IOData, validation: IOData | None = None, *, kerne
     >>> result.model.n == result.selected.order <= 6
     True
     """
-    if not isinstance(data, IOData):
-        raise DataError(f"data must be an IOData, got {type(data).__name__}")
-    if x0 not in X0_CHOICES:
-        raise OptionError(f"x0 must be one of {X0_CHOICES}, got {x0!r}")
+    estimation, validation, source = checked_records(data, validation, x0)
     if nmax is not None and (isinstance(nmax, bool) or not isinstance(nmax, (int, np.integer)) or nmax < 1):
         raise OptionError(f"nmax must be a positive integer, got {nmax!r}")
-    if validation is None:
-        estimation, validation = data.split(1.0 - HOLDOUT_FRACTION)
-        source = f"held out: last {HOLDOUT_FRACTION:.0%} of the record"
-    else:
-        if not isinstance(validation, IOData) or (validation.p, validation.m) != (data.p, data.m) \
-                or not same_period(validation.Ts, data.Ts):
-            raise DataError("validation must be an IOData of the same channels and sampling period as data")
-        estimation, source = data, "given"
     arx = regularized_arx(estimation, kernel, lags, feedthrough=feedthrough, center=center)
     A, B, C, D = arx.state_space()
     balanced = balancing(A, B, C)
@@ -122,17 +104,13 @@ def identify_kernel_arx(data: IOData, validation: IOData | None = None, *, kerne
                         "values are zero): the record does not show the inputs acting on the outputs")
     # the operating point the fit removed
     means = (estimation.y.mean(axis=0), estimation.u.mean(axis=0)) if center else (None, None)
-    path, shares = [], []
-    for order in orders:
+
+    def truncation(order: int) -> StateSpaceModel:
         V, W = balanced.projection(order)
-        model = StateSpaceModel(W.T @ A @ V, W.T @ B, C @ V, D, data.Ts, output_names=data.output_names,
-                                input_names=data.input_names, y_offset=means[0], u_offset=means[1])
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)      # an unstable truncation diverges
-            simulated = compare(model, validation, x0)
-            shares.append(error_shares(validation.y, simulated.yhat))
-        path.append(KernelStep(order, model, simulated.vaf))
-    selected = select_by_shares(path, shares.__getitem__, PAIRED_Z)
+        return StateSpaceModel(W.T @ A @ V, W.T @ B, C @ V, D, data.Ts, output_names=data.output_names,
+                               input_names=data.input_names, y_offset=means[0], u_offset=means[1])
+
+    path, selected = validated_orders(((order, truncation(order)) for order in orders), validation, x0)
     chosen = path[selected]
     info = {"method": "kernel-arx", "kernel": kernel, "arx_lags": arx.lags, "validation_vaf": chosen.vaf.tolist(),
             **({} if data.time_unit is None else {"time_unit": data.time_unit})}

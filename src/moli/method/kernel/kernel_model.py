@@ -11,34 +11,18 @@ impulse response's posterior pushed through the realization, so ``magnitude_band
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from ...data.iodata import IOData
-from ...errors import DataError, OptionError
+from ...errors import OptionError
 from ...models.statespace import StateSpaceModel
-from ...validation.comparison import X0_CHOICES, compare, same_period
-from ..search.greedy_path import ScoredStep
-from ..selection.order_rules import PAIRED_Z, select_by_shares
-from ..selection.paired_test import error_shares
 from .impulse import ImpulseResponse, impulse_response
 from .realization import hankel_blocks, hankel_realization, realization_covariance
+from .validated_orders import KernelStep, checked_records, order_table, validated_orders
 
-__all__ = ["KernelStep", "KernelResult", "identify_kernel"]
-
-# Share of the record held out for the order when no validation record is given, as identify's.
-HOLDOUT_FRACTION = 0.3
-
-
-@dataclass
-class KernelStep(ScoredStep):
-    """One order's realization and its validation VAF per output (scored as a path step is)."""
-
-    order: int
-    model: StateSpaceModel
-    vaf: np.ndarray
+__all__ = ["KernelResult", "identify_kernel"]
 
 
 @dataclass
@@ -61,11 +45,8 @@ class KernelResult:
 
     def summary(self) -> str:
         """The orders' validation VAFs and the selection, as text."""
-        lines = [f"kernel model: {self.impulse.kernel} prior, impulse response of {len(self.impulse.lags)} lags, "
-                 f"validation {self.validation_source}", "  order  mean VAF  stable"]
-        lines += [f"{'*' if i == self.selected_index else ' '} {step.order:5d}  {step.mean_vaf:8.2f}  {step.stable}"
-                  for i, step in enumerate(self.path)]
-        return "\n".join(lines)
+        return order_table(f"kernel model: {self.impulse.kernel} prior, impulse response of {len(self.impulse.lags)} "
+                           f"lags, validation {self.validation_source}", self.path, self.selected_index)
 
 
 def identify_kernel(data: IOData, validation: IOData | None = None, *, kernel: str = "TC", nmax: int | None = None,
@@ -102,18 +83,7 @@ def identify_kernel(data: IOData, validation: IOData | None = None, *, kernel: s
     >>> result.model.n == result.selected.order <= 6
     True
     """
-    if not isinstance(data, IOData):
-        raise DataError(f"data must be an IOData, got {type(data).__name__}")
-    if x0 not in X0_CHOICES:
-        raise OptionError(f"x0 must be one of {X0_CHOICES}, got {x0!r}")
-    if validation is None:
-        estimation, validation = data.split(1.0 - HOLDOUT_FRACTION)
-        source = f"held out: last {HOLDOUT_FRACTION:.0%} of the record"
-    else:
-        if not isinstance(validation, IOData) or (validation.p, validation.m) != (data.p, data.m) \
-                or not same_period(validation.Ts, data.Ts):
-            raise DataError("validation must be an IOData of the same channels and sampling period as data")
-        estimation, source = data, "given"
+    estimation, validation, source = checked_records(data, validation, x0)
     fit = impulse_response(estimation, kernel, length, feedthrough=feedthrough, center=center)
     markov = fit.coefficients[int(feedthrough):]
     rows, cols = hankel_blocks(markov.shape[0])
@@ -123,17 +93,10 @@ def identify_kernel(data: IOData, validation: IOData | None = None, *, kernel: s
     D = fit.coefficients[0] if feedthrough else np.zeros((data.p, data.m))
     # the operating point the fit removed
     means = (estimation.y.mean(axis=0), estimation.u.mean(axis=0)) if center else (None, None)
-    path, shares = [], []
-    for order in range(1, top + 1):
-        A, B, C = hankel_realization(markov, order)
-        model = StateSpaceModel(A, B, C, D, data.Ts, output_names=data.output_names, input_names=data.input_names,
-                                y_offset=means[0], u_offset=means[1])
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", RuntimeWarning)      # an unstable realization diverges
-            simulated = compare(model, validation, x0)
-            shares.append(error_shares(validation.y, simulated.yhat))
-        path.append(KernelStep(order, model, simulated.vaf))
-    selected = select_by_shares(path, shares.__getitem__, PAIRED_Z)
+    path, selected = validated_orders(
+        ((order, StateSpaceModel(*hankel_realization(markov, order), D, data.Ts, output_names=data.output_names,
+                                 input_names=data.input_names, y_offset=means[0], u_offset=means[1]))
+         for order in range(1, top + 1)), validation, x0)
     chosen = path[selected].model
     directions = [_direction(fit, j, column) for j, factor in enumerate(fit.cov_factors) for column in factor.T]
     info = {"method": "kernel", "kernel": kernel, "impulse_lags": len(fit.lags),
