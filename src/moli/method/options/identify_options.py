@@ -307,7 +307,7 @@ class IdentifyOptions:
         stop (``polish_selected=False``); every other choice is the default's, the noise
         model and its bands included. Over the 119 cases of the generalization benchmark its
         mean validation VAF is 0.35, 0.64 and 0.12 points below the default's on seeds 0, 1
-        and 2, and 1.9, 2.3 and 2.5 points above the best subspace peer's, at 1.5-2.3 times
+        and 2, and 1.9, 2.3 and 2.5 points above the best subspace peer's, at 1.4-2.2 times
         the CPU of SIPPY's N4SID order sweep on four DaISy records (docs/accuracy.md, "The
         fast preset"; docs/performance.md).
 
