@@ -29,7 +29,7 @@ TS = 0.01
 
 
 def system(seed: int, modes: int = 4) -> tuple[moli.ContinuousModel, np.ndarray, np.ndarray]:
-    """The seed's continuous-time truth: ``modes`` modes (2 x modes states), their natural frequencies and damping ratios.
+    """The seed's continuous-time truth with ``modes`` modes, their natural frequencies and damping ratios.
 
     With the default four modes it draws what it always drew (the figures of docs/frequency.md
     §8); ``benchmarks/frequency_peers.py`` shares it, with 4-8 modes.

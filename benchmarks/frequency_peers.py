@@ -13,7 +13,9 @@ of the fit alone (``time.process_time``, one BLAS thread).
 Methods (the peers get the true number of states; moli chooses its order or is given it):
 
 - ``moli``: ``moli.identify(data, nmax=2 modes + 2)`` (the default nmax at 4 modes), the
-  data's variance given, as a user would call it; ``moli (order given)``: ``order=2 modes``.
+  data's variance given, as a user would call it; ``moli (order given)``: ``order=2 modes``;
+  ``moli refine=selected``: the orders judged by their subspace fits, only the selected one
+  refined (an option of moli's, docs/frequency.md §7).
 - ``VF``: scikit-rf's ``VectorFitting.vector_fit`` (Gustavsen and Semlyen's vector fitting,
   relaxed, all responses on one pole set), ``modes`` complex pole pairs, no real pole,
   log-spaced starting poles (the lines are log-spaced), constant term fitted. A scikit-rf
@@ -36,6 +38,7 @@ Methods (the peers get the true number of states; moli chooses its order or is g
   same ``T`` for continuous data).
 
     OPENBLAS_NUM_THREADS=1 python benchmarks/frequency_peers.py --seeds 20 [--modes 4] [--out peers.json]
+    python benchmarks/frequency_peers.py --table peers.json more.json      # one table of several runs
 
 Needs the ``bench`` extra (``pip install -e '.[bench]'``: scikit-rf, freq-statespace).
 """
@@ -49,6 +52,7 @@ import json  # noqa: E402
 import logging  # noqa: E402
 import time  # noqa: E402
 import warnings  # noqa: E402
+from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 from scipy.optimize import linear_sum_assignment  # noqa: E402
@@ -56,7 +60,7 @@ from scipy.optimize import linear_sum_assignment  # noqa: E402
 import moli  # noqa: E402
 from frequency import lines, noisy, system  # noqa: E402
 
-METHODS = ("moli", "moli (order given)", "VF", "VF auto", "FSID", "FSID ffsid")
+METHODS = ("moli", "moli (order given)", "moli refine=selected", "VF", "VF auto", "FSID", "FSID ffsid")
 
 
 def response(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -65,8 +69,8 @@ def response(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, points:
     return C @ np.linalg.solve(pencil, np.broadcast_to(B, (points.size, *B.shape))) + D
 
 
-def fit_moli(data: moli.FrequencyData, modes: int, given: bool) -> tuple[np.ndarray, callable]:
-    options = {"order": 2 * modes} if given else {"nmax": 2 * modes + 2}
+def fit_moli(data: moli.FrequencyData, modes: int, given: bool, refine: str = "guarded") -> tuple[np.ndarray, callable]:
+    options = {"order": 2 * modes} if given else {"nmax": 2 * modes + 2, "refine": refine}
     model = moli.identify(data, **options).model
     poles = model.poles() if data.Ts is None else np.log(model.poles().astype(complex)) / data.Ts
     return poles, lambda omega: model.frequency_response(omega)
@@ -139,6 +143,7 @@ def mode_errors(poles: np.ndarray, natural: np.ndarray, damping: np.ndarray) -> 
 
 
 FITS = {"moli": lambda d, k: fit_moli(d, k, False), "moli (order given)": lambda d, k: fit_moli(d, k, True),
+        "moli refine=selected": lambda d, k: fit_moli(d, k, False, "selected"),
         "VF": lambda d, k: fit_vf(d, k, False), "VF auto": lambda d, k: fit_vf(d, k, True),
         "FSID": lambda d, k: fit_fsid(d, k, True), "FSID ffsid": lambda d, k: fit_fsid(d, k, False)}
 
@@ -170,7 +175,7 @@ def one_seed(seed: int, modes: int, kinds: tuple[str, ...], methods: tuple[str, 
 
 
 def table(rows: list[dict], modes: int) -> str:
-    lines_ = ["| method | time | states: true / median (range) | missed modes | natural-frequency error: median, "
+    lines_ = ["| method | time base | states: true / median (range) | missed modes | natural-frequency error: median, "
               "worst | damping error: median, worst | FRF error: median, worst | CPU s: median, max |",
               "|---|---|---|---|---|---|---|---|"]
     for kind in ("continuous", "discrete"):
@@ -199,7 +204,13 @@ def main() -> None:
     parser.add_argument("--continuous-only", action="store_true", help="leave out the discrete-time variant")
     parser.add_argument("--methods", default=",".join(METHODS), help="comma-separated subset of: " + ", ".join(METHODS))
     parser.add_argument("--out", help="write every seed's figures to this JSON file")
+    parser.add_argument("--table", nargs="+", metavar="JSON", help="fit nothing: print the table of these --out files "
+                        "(runs of other methods on the same seeds and modes)")
     args = parser.parse_args()
+    if args.table:
+        saved = [json.loads(Path(name).read_text()) for name in args.table]
+        print(table([row for each in saved for row in each["rows"]], saved[0]["modes"]))
+        return
     methods = tuple(args.methods.split(","))
     unknown = set(methods) - set(METHODS)
     if unknown:
@@ -212,14 +223,14 @@ def main() -> None:
         for seed in range(args.seeds):
             rows += one_seed(seed, args.modes, kinds, methods)
             print(f"seed {seed} done", flush=True)
+            if args.out:                                  # after every seed: a stopped run keeps its seeds
+                with open(args.out, "w") as handle:
+                    json.dump({"seeds": seed + 1, "modes": args.modes, "rows": rows}, handle, indent=1)
     for row in rows:
         if row["failure"]:
             print(f"seed {row['seed']} {row['kind']} {row['method']} failed: {row['failure']}")
     print(f"\n{args.seeds} seeds, {args.modes} modes (2 inputs, 3 outputs, 2000 lines, 1-3 % noise)\n")
     print(table(rows, args.modes))
-    if args.out:
-        with open(args.out, "w") as handle:
-            json.dump({"seeds": args.seeds, "modes": args.modes, "rows": rows}, handle, indent=1)
 
 
 if __name__ == "__main__":

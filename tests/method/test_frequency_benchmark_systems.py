@@ -26,7 +26,8 @@ def benchmarks():
         saved_env[name] = os.environ.get(name)
     sys.path.insert(0, str(REPO / "benchmarks"))      # the scripts import each other by name
     try:
-        yield _load_script(REPO / "benchmarks" / "frequency.py"), _load_script(REPO / "benchmarks" / "frequency_peers.py")
+        yield (_load_script(REPO / "benchmarks" / "frequency.py"),
+               _load_script(REPO / "benchmarks" / "frequency_peers.py"))
     finally:
         sys.path[:] = saved_path
         for name in ("frequency", "single_thread"):
@@ -65,7 +66,8 @@ def test_mode_errors_pair_each_true_mode_with_one_fitted_mode(benchmarks):
     frequency, peers = benchmarks
     _, natural, damping = frequency.system(0, 4)
     poles = -damping * natural + 1j * natural * np.sqrt(1 - damping**2)
-    shuffled = np.concatenate([poles[::-1], np.conj(poles), [-3.0, -400 + 90j]])      # any order, a real and a spurious pole
+    # any order, with the conjugates, a real pole and a spurious pair
+    shuffled = np.concatenate([poles[::-1], np.conj(poles), [-3.0, -400 + 90j]])
     frequency_error, damping_error = peers.mode_errors(shuffled, natural, damping)
     np.testing.assert_allclose(frequency_error, 0, atol=1e-12)
     np.testing.assert_allclose(damping_error, 0, atol=1e-12)
