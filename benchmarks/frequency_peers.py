@@ -200,6 +200,7 @@ def table(rows: list[dict], modes: int) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=20)
+    parser.add_argument("--first-seed", type=int, default=0, help="seeds first-seed .. first-seed + seeds - 1")
     parser.add_argument("--modes", type=int, default=4, help="modes per system (the issue's range is 4-8)")
     parser.add_argument("--continuous-only", action="store_true", help="leave out the discrete-time variant")
     parser.add_argument("--methods", default=",".join(METHODS), help="comma-separated subset of: " + ", ".join(METHODS))
@@ -220,12 +221,13 @@ def main() -> None:
     rows = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")                   # the peers' convergence chatter
-        for seed in range(args.seeds):
+        for seed in range(args.first_seed, args.first_seed + args.seeds):
             rows += one_seed(seed, args.modes, kinds, methods)
             print(f"seed {seed} done", flush=True)
             if args.out:                                  # after every seed: a stopped run keeps its seeds
                 with open(args.out, "w") as handle:
-                    json.dump({"seeds": seed + 1, "modes": args.modes, "rows": rows}, handle, indent=1)
+                    json.dump({"seeds": seed + 1 - args.first_seed, "modes": args.modes, "rows": rows}, handle,
+                              indent=1)
     for row in rows:
         if row["failure"]:
             print(f"seed {row['seed']} {row['kind']} {row['method']} failed: {row['failure']}")
