@@ -37,20 +37,34 @@ TS = 0.01
 DRAWS = 200
 
 
-def system(seed: int) -> tuple[moli.ContinuousModel, np.ndarray, np.ndarray]:
+def system(seed: int, modes: int = 4) -> tuple[moli.ContinuousModel, np.ndarray, np.ndarray]:
+    """The seed's continuous-time truth with ``modes`` modes, their natural frequencies and damping ratios.
+
+    With the default four modes it draws what it always drew (the figures of docs/frequency.md
+    §8); ``benchmarks/frequency_peers.py`` shares it, with 4-8 modes.
+    """
     rng = np.random.default_rng(seed)
     while True:
-        natural = np.sort(np.exp(rng.uniform(np.log(5.0), np.log(150.0), 4)))
+        natural = np.sort(np.exp(rng.uniform(np.log(5.0), np.log(150.0), modes)))
         if np.all(np.diff(np.log(natural)) > np.log(1.15)):
             break
-    damping = np.exp(rng.uniform(np.log(0.005), np.log(0.05), 4))
-    A = np.zeros((8, 8))
+    damping = np.exp(rng.uniform(np.log(0.005), np.log(0.05), modes))
+    states = 2 * modes
+    A = np.zeros((states, states))
     for i, (wn, zeta) in enumerate(zip(natural, damping)):
         sigma, omega = -zeta * wn, wn * np.sqrt(1 - zeta**2)
         A[2 * i:2 * i + 2, 2 * i:2 * i + 2] = [[sigma, omega], [-omega, sigma]]
-    model = moli.ContinuousModel(A, rng.standard_normal((8, 2)), rng.standard_normal((3, 8)), np.zeros((3, 2)),
-                                 ("y1", "y2", "y3"), ("u1", "u2"), np.zeros(3), np.zeros(2), (0.0, 0.0))
+    model = moli.ContinuousModel(A, rng.standard_normal((states, 2)), rng.standard_normal((3, states)),
+                                 np.zeros((3, 2)), ("y1", "y2", "y3"), ("u1", "u2"), np.zeros(3), np.zeros(2),
+                                 (0.0, 0.0))
     return model, natural, damping
+
+
+def lines(kind: str) -> tuple[float | None, np.ndarray]:
+    """The sampling period (None: continuous) and the 2000 log-spaced lines (rad/s) of ``kind``."""
+    if kind == "continuous":
+        return None, np.logspace(0, np.log10(300), 2000)
+    return TS, np.logspace(0, np.log10(np.pi / TS), 2000)
 
 
 def noisy(G: np.ndarray, omega: np.ndarray, seed: int, Ts: float | None) -> moli.FrequencyData:
@@ -96,8 +110,8 @@ def exact_covariance_shares(model, omega: np.ndarray, lower: np.ndarray, upper: 
 def one_seed(seed: int, frequency_start: str = "subspace") -> dict:
     truth, natural, damping = system(seed)
     row = {"seed": seed}
-    for kind, Ts, omega in (("continuous", None, np.logspace(0, np.log10(300), 2000)),
-                            ("discrete", TS, np.logspace(0, np.log10(np.pi / TS), 2000))):
+    for kind in ("continuous", "discrete"):
+        Ts, omega = lines(kind)
         plant = truth if Ts is None else truth.to_discrete(Ts)
         G = plant.frequency_response(omega)
         data = noisy(G, omega, seed, Ts)
