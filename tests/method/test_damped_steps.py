@@ -69,3 +69,20 @@ def test_a_linearization_that_is_not_finite_says_so():
     augmented = ill_conditioned(200, 10, 6)
     augmented[17, 3] = np.nan
     assert not Linearization(augmented, 1e-9).finite
+
+
+def test_a_normal_system_that_fails_its_cholesky_defers_to_the_qr_or_to_a_larger_damping(monkeypatch):
+    import scipy.linalg
+
+    def not_positive_definite(*args, **kwargs):
+        raise np.linalg.LinAlgError("not positive definite")
+
+    monkeypatch.setattr(scipy.linalg, "cho_factor", not_positive_definite)
+    augmented = ill_conditioned(3000, 20, 7)
+    threshold = 3000 * np.finfo(float).eps / GRAM_ROUNDOFF_SHARE
+    # the floor needs the QR at small dampings, so the matrix is kept and the QR answers
+    kept = Linearization(augmented, threshold / 100)
+    expected = reference_step(augmented, threshold * 10)
+    assert np.linalg.norm(kept.step(threshold * 10) - expected) <= 1e-8 * np.linalg.norm(expected)
+    # every damping from the floor on is solved from the Gram matrix: no QR at hand, so no step
+    assert Linearization(augmented, threshold * 10).step(threshold * 10) is None
