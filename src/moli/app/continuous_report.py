@@ -19,7 +19,6 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from . import figures
-from .figure_files import save_figure
 from .._version import __version__
 from ..data.atomic_files import write_atomic
 from ..data.display import angular_unit, figure_label, report_name, time_label
@@ -30,8 +29,7 @@ from ..method.continuous.identification import ContinuousResult
 from ..method.continuous.search import WARM_UP
 from ..models.bands import magnitude_bands
 from ..validation.comparison import compare
-from ..validation.residuals import SAMPLES_PER_LAG, residual_analysis
-from .report import STYLE, embedded_image, facts_table, residual_section, warnings_section
+from .report import STYLE, drawn_residuals, embedded_figures, facts_table, residual_section, warnings_section
 
 __all__ = ["write_continuous_report"]
 
@@ -187,15 +185,8 @@ def write_continuous_report(result: ContinuousResult, directory: str | Path,
                            f"(deviations), to {SETTLING_TIME_CONSTANTS:g} time constants of the slowest pole" + bands),
         "magnitude": (_gain_figure(result), "Gain of each channel against frequency" + bands),
     }
-    tested = longest_segment(result.validation)
-    lags = min(25, tested.N // SAMPLES_PER_LAG - 1)   # as the sampled report: fewer on a short record
-    analysis = residual_analysis(model, tested, lags=lags) if lags >= 1 else None
-    if analysis is not None:
-        drawn["residuals"] = (figures.residual_correlations(analysis), "Residual correlations on the validation "
-                              f"record with their {analysis.confidence:.0%} bands: autocorrelation, then the "
-                              "cross-correlation with each input (positive lags: past inputs).")
-    shown = {name: f"<figure>{embedded_image(save_figure(fig, out / f'{name}.png'), name)}"
-             f"<figcaption class='note'>{caption}</figcaption></figure>" for name, (fig, caption) in drawn.items()}
+    analysis = drawn_residuals(model, longest_segment(result.validation), drawn)
+    shown = embedded_figures(drawn, out)
     residuals = "" if analysis is None else residual_section(analysis, shown.pop("residuals"))
     options = facts_table({name: str(value) for name, value in result.options.to_dict().items()})
     poles = "".join(f"<li>{html.escape(line.strip())}</li>" for line in model.pole_table()[1:]

@@ -17,7 +17,6 @@ from typing import Sequence
 import numpy as np
 
 from . import figures, frequency_figures
-from .figure_files import save_figure
 from .impulse_section import IMPULSE_FIGURES, impulse_figures, impulse_section
 from .._version import __version__
 from ..data.atomic_files import write_atomic
@@ -27,8 +26,7 @@ from ..data.iodata import longest_segment
 from ..method.kernel.kernel_model import KernelResult
 from ..method.pipeline.routes import KERNEL_READS
 from ..validation.comparison import compare
-from ..validation.residuals import SAMPLES_PER_LAG, residual_analysis
-from .report import STYLE, embedded_image, facts_table, residual_section, warnings_section
+from .report import STYLE, drawn_residuals, embedded_figures, facts_table, residual_section, warnings_section
 
 __all__ = ["write_kernel_report"]
 
@@ -110,15 +108,8 @@ def write_kernel_report(result: KernelResult, directory: str | Path, data_file: 
                       "the Nyquist frequency" + bands),
         **impulse_figures(fit),
     }
-    tested = longest_segment(validation)
-    lags = min(25, tested.N // SAMPLES_PER_LAG - 1)   # as the MOLI report: fewer on a short record
-    analysis = residual_analysis(model, tested, lags=lags) if lags >= 1 else None
-    if analysis is not None:
-        drawn["residuals"] = (figures.residual_correlations(analysis), "Residual correlations on the validation "
-                              f"record with their {analysis.confidence:.0%} bands: autocorrelation, then the "
-                              "cross-correlation with each input (positive lags: past inputs).")
-    shown = {name: f"<figure>{embedded_image(save_figure(fig, out / f'{name}.png'), name)}"
-             f"<figcaption class='note'>{caption}</figcaption></figure>" for name, (fig, caption) in drawn.items()}
+    analysis = drawn_residuals(model, longest_segment(validation), drawn)
+    shown = embedded_figures(drawn, out)
     residuals = "" if analysis is None else residual_section(analysis, shown.pop("residuals"))
     regularized = impulse_section(fit, [shown.pop(name) for name in IMPULSE_FIGURES], result.estimation.N)
     page = f"""<!DOCTYPE html>

@@ -27,6 +27,7 @@ from ..errors import DataError
 from ..method.identification import IdentificationResult
 from ..method.search.greedy_path import PathStep
 from ..models.pole_bands import pole_support
+from ..models.protocol import LinearModel
 from ..validation.comparison import compare
 from ..validation.frequency import EmpiricalResponse, empirical_frequency_response
 from ..validation.residuals import SAMPLES_PER_LAG, ResidualAnalysis, residual_analysis
@@ -48,6 +49,25 @@ img { max-width: 100%; }
 def embedded_image(png: bytes, alt: str) -> str:
     encoded = base64.b64encode(png).decode("ascii")
     return f'<img alt="{html.escape(alt)}" src="data:image/png;base64,{encoded}">'
+
+
+def drawn_residuals(model: LinearModel, record: IOData, drawn: dict) -> ResidualAnalysis | None:
+    """The residual analysis of ``model`` on ``record`` (at most the default 25 lags, fewer on a
+    short record; None where it is too short for one), its figure put into ``drawn``."""
+    lags = min(25, record.N // SAMPLES_PER_LAG - 1)
+    analysis = residual_analysis(model, record, lags=lags) if lags >= 1 else None
+    if analysis is not None:
+        drawn["residuals"] = (figures.residual_correlations(analysis),
+                              f"Residual correlations on the validation record with their "
+                              f"{analysis.confidence:.0%} bands: autocorrelation, then the "
+                              "cross-correlation with each input (positive lags: past inputs).")
+    return analysis
+
+
+def embedded_figures(drawn: Mapping[str, tuple], out: Path) -> dict[str, str]:
+    """Each ``name: (figure, caption)`` saved as ``out/name.png`` and embedded with its caption."""
+    return {name: f"<figure>{embedded_image(save_figure(fig, out / f'{name}.png'), name)}"
+                  f"<figcaption class='note'>{caption}</figcaption></figure>" for name, (fig, caption) in drawn.items()}
 
 
 def facts_table(rows: Mapping[str, str]) -> str:
@@ -292,22 +312,11 @@ def write_report(
                             + (f" (from the longest validation segment, {continuous.N} samples)."
                                if validation.n_segments > 1 else ".") + no_spectrum),
     }
-    # at most the default 25 lags, fewer on a short validation record
-    lags = min(25, continuous.N // SAMPLES_PER_LAG - 1)
-    analysis = residual_analysis(model, continuous, lags=lags) if lags >= 1 else None
-    if analysis is not None:
-        drawn["residuals"] = (figures.residual_correlations(analysis),
-                              f"Residual correlations on the validation record with their "
-                              f"{analysis.confidence:.0%} bands: autocorrelation, then the "
-                              "cross-correlation with each input (positive lags: past inputs).")
+    analysis = drawn_residuals(model, continuous, drawn)
     # what the record says of the responses, whatever the model's order
     impulse = regularized_fit(result.estimation)
     drawn.update(impulse_figures(impulse))
-    figures_html = {}
-    for name, (fig, caption) in drawn.items():
-        png = save_figure(fig, out / f"{name}.png")
-        figures_html[name] = (f"<figure>{embedded_image(png, name)}<figcaption class='note'>{caption}"
-                              "</figcaption></figure>")
+    figures_html = embedded_figures(drawn, out)
     residuals = "" if analysis is None else residual_section(analysis, figures_html.pop("residuals"))
     regularized = impulse_section(impulse, [figures_html.pop(name) for name in IMPULSE_FIGURES
                                             if name in figures_html], result.estimation.N)
