@@ -125,3 +125,9 @@ def test_the_report_and_the_description_give_the_delays(tmp_path):
     assert "input delays" in page and "voltage 0.003 (time units)" in page
     assert "estimated before the held-out test" in page
     assert "input delays (time units): [0.0, 0.00" in describe(result.model)
+    # the model file keeps the delays: the loaded model's response is the fitted one's
+    result.model.save(tmp_path / "delayed.json")
+    loaded = moli.load_model(tmp_path / "delayed.json")
+    np.testing.assert_allclose(loaded.input_delays, result.model.input_delays, rtol=0, atol=0)
+    np.testing.assert_allclose(loaded.frequency_response(OMEGA), result.model.frequency_response(OMEGA),
+                               rtol=1e-12, atol=0)   # the same matrices and delays: round-off of one evaluation
