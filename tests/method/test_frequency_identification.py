@@ -7,6 +7,7 @@ import pytest
 
 import moli
 from moli import DataError, FrequencyData, OptionError
+from moli.method.frequency.orders import fit_domain
 
 
 def modal_system(frequencies, dampings, p, m, seed):
@@ -260,3 +261,31 @@ def test_the_modes_standard_deviations_are_those_of_the_covariances_draws(Ts):
         assert mode.natural_frequency_std == pytest.approx(natural, rel=0.05)
         assert mode.damping_std == pytest.approx(damping, rel=0.05)
     assert moli.modes(truth)[0].natural_frequency_std is None
+
+
+@pytest.mark.parametrize("spacing", ["log", "even"])
+def test_the_discrete_subspace_start_maps_the_spread_circle_back_onto_the_lines(spacing):
+    """A model on the spread circle ``w = (z + a) / (1 + a z)`` maps back to the poles it came from."""
+    Ts = 0.01
+    omega = (np.logspace(0, np.log10(np.pi / Ts), 500) if spacing == "log"
+             else np.linspace(np.pi / Ts / 500, np.pi / Ts, 500))
+    data = moli.FrequencyData(omega, np.ones((500, 1, 1)), unit="rad/s", Ts=Ts)
+    domain = fit_domain(data)
+    z = np.exp(1j * omega * Ts)
+    w = domain.circle(data)
+    np.testing.assert_allclose(np.abs(w), 1, atol=1e-12)                   # the circle onto itself
+    if spacing == "even":
+        # the Tustin frequencies tan(theta / 2) of lines even in theta have a geometric mean near 1
+        # (tan and cot pair up about pi / 2): next to no map
+        assert abs(domain.spread) < 0.05
+    else:
+        # half the log-spaced lines lie below a tenth of the Nyquist frequency; spread, they straddle w = j
+        assert np.median(np.angle(z)) < np.pi / 10 and 0.3 < np.mean(np.angle(w) < np.pi / 2) < 0.7
+    poles = np.array([0.999, 0.95 * np.exp(0.2j), 0.95 * np.exp(-0.2j), -0.5])
+    A = np.diag(poles)
+    a = domain.spread
+    on_circle = np.linalg.solve(np.eye(4) + a * A, A + a * np.eye(4))       # each pole z to (z + a) / (1 + a z)
+    A_back, C_back = domain.from_circle(on_circle, np.ones((1, 4)))
+    # eigenvalues of a 4 x 4 map of condition near 1: round-off
+    np.testing.assert_allclose(np.sort_complex(np.linalg.eigvals(A_back)), np.sort_complex(poles), atol=1e-12)
+    assert C_back.shape == (1, 4)

@@ -41,8 +41,8 @@ from ..selection.paired_test import error_shares, paired_difference
 from .fit_error import LINE_CHUNK, FitProblem, cost, response, weighted_jacobian
 from .modal_form import ModalLayout, is_stable
 from .orders import FitDomain, band_wide_order, problem_on, start_model, subspace_basis
-from .refinement import FIRST_DAMPING, GROW, MAX_DAMPING, MAX_STEPS, PATH_STEPS, RELATIVE_DECREASE, SHRINK, \
-    refine_modal
+from .refinement import FIRST_DAMPING, GROW, MAX_DAMPING, MAX_STEPS, PATH_RELATIVE_DECREASE, PATH_STEPS, \
+    RELATIVE_DECREASE, SHRINK, refine_modal
 from .settings import FrequencySettings
 
 __all__ = ["DelayFit", "fit_delays", "forced_delays", "compensated", "with_delays", "delay_grid", "refine_with_delays",
@@ -161,7 +161,7 @@ class _Grid:
         for j, per_delay in enumerate(self.lines):
             errors = np.full(self.delays.size, np.inf)
             for g, (problem, basis, held) in enumerate(per_delay):
-                start = start_model(basis, order, problem, self.settings, self.domain.continuous)
+                start = start_model(basis, order, problem, self.settings, self.domain)
                 if start is not None:
                     errors[g] = float(np.sum(_shares(*start, self.delays[g:g + 1], held, self.domain)))
             starts[j] = self.delays[int(np.argmin(errors))]
@@ -190,14 +190,15 @@ def _normal_equations(layout: ModalLayout, theta: np.ndarray, problem: FitProble
 
 def refine_with_delays(layout: ModalLayout, theta: np.ndarray, delays: np.ndarray, free: np.ndarray,
                        lines: FrequencyData, domain: FitDomain, *, radius: float | None,
-                       max_steps: int = MAX_STEPS) -> tuple[np.ndarray, np.ndarray, float]:
+                       max_steps: int = MAX_STEPS,
+                       relative_decrease: float = RELATIVE_DECREASE) -> tuple[np.ndarray, np.ndarray, float]:
     """Levenberg-Marquardt on ``theta`` and the delays of the ``free`` inputs (time units, kept >= 0) together,
     as :func:`moli.method.frequency.refinement.refine_modal` does on ``theta`` alone (which it is without
     free delays); returns ``theta``, the delays and the cost."""
     delays = np.asarray(delays, dtype=float).copy()
     if free.size == 0:
         refined = refine_modal(layout, theta, _problem(lines, domain, delays), continuous=domain.continuous,
-                               radius=radius, max_steps=max_steps)
+                               radius=radius, max_steps=max_steps, relative_decrease=relative_decrease)
         return refined.theta, delays, refined.cost
     theta, damping, steps = theta.copy(), FIRST_DAMPING, 0
     N, g, current = _normal_equations(layout, theta, _problem(lines, domain, delays), lines.omega, free)
@@ -219,7 +220,7 @@ def refine_with_delays(layout: ModalLayout, theta: np.ndarray, delays: np.ndarra
             break
         decrease = current - trial_cost
         theta, delays, damping = trial, trial_delays, max(damping * SHRINK, 1e-12)
-        if decrease <= RELATIVE_DECREASE * current:
+        if decrease <= relative_decrease * current:
             current = trial_cost
             break
         N, g, current = _normal_equations(layout, theta, _problem(lines, domain, delays), lines.omega, free)
@@ -231,12 +232,12 @@ def _fitted(order: int, delays: np.ndarray, free: np.ndarray, estimation: Freque
     """The order's subspace start on the lines compensated by ``delays``, refined with the ``free`` delays."""
     lines = compensated(estimation, delays)
     start = start_model(subspace_basis(lines, domain, settings.nmax), order, problem_on(lines, domain), settings,
-                        domain.continuous)
+                        domain)
     if start is None:
         return None
     layout, theta = start
     theta, delays, _ = refine_with_delays(layout, theta, delays, free, estimation, domain, radius=settings.radius,
-                                          max_steps=PATH_STEPS)
+                                          max_steps=PATH_STEPS, relative_decrease=PATH_RELATIVE_DECREASE)
     shares = _shares(layout, theta, delays, judged, domain)
     return _Step(order, layout, theta, delays, is_stable(layout, theta, domain.continuous, 1.0),
                  100.0 - float(np.sum(shares)), shares)

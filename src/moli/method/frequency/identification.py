@@ -147,7 +147,7 @@ def identify_frequency(
     path = []
     for order in orders:
         refine = settings.refine in ("path", "guarded")
-        step = fit_order(order, basis, problem, judged, settings, domain.continuous, refine=refine)
+        step = fit_order(order, basis, problem, judged, settings, domain, refine=refine)
         if settings.moli_start:
             step = with_moli_start(step, order, problem, judged, settings, domain.continuous, refine=refine)
         if step is not None:

@@ -4,7 +4,8 @@ Every fit works in a domain where the lines are well scaled: a discrete system's
 ``z = exp(1j omega Ts)`` as they are, a continuous system's ``s = 1j omega / omega_c``
 with ``omega_c`` the lines' geometric mean (:class:`FitDomain`), so that the poles,
 ``B`` and ``C`` have comparable sizes; the physical model is ``A omega_c``, ``B omega_c``,
-``C``, ``D``.
+``C``, ``D``. The subspace start works on the unit circle with the lines spread over it
+(:meth:`FitDomain.circle`), and its ``A`` and ``C`` are mapped back to the fit domain.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ from ...data.frequency_data import FrequencyData
 from ..selection.paired_test import PAIRED_BATCHES, error_shares
 from .fit_error import FitProblem, cost as fit_cost, response
 from .modal_form import ModalLayout, is_stable, matrices, modal_parameters, reflected
-from .refinement import PATH_STEPS, refine_modal
+from .refinement import PATH_RELATIVE_DECREASE, PATH_STEPS, refine_modal
 from .settings import FrequencySettings
 from .subspace import bilinear_points, input_and_feedthrough, observability_basis, poles_and_output
 
@@ -33,14 +34,23 @@ __all__ = ["FitDomain", "FrequencyStep", "fit_domain", "problem_on", "held_out_s
 # 1 % (NEGLIGIBLE_SHARE). Each order then costs a bounded refinement and a few passes over the
 # lines (its B and D, its held-out error, its cost), not 20 Jacobians of every line.
 PATH_LINES = 4096
-# A subspace model with a pole this close to z = -1 (the condition number of A_d + I) has one at
-# an infinite s: no continuous model maps to it, and the order is left out.
+# A subspace model with a pole this close to the circle's image of infinity (z = -1 for a continuous
+# domain, 1 / a for a discrete one; the condition number of A_d + I or I - a A_d) has one at an
+# infinite s or z: no model in the fit domain has it, and the order is left out.
 MAX_SHIFT_CONDITION = 1e12
 
 
 @dataclass(frozen=True)
 class FitDomain:
-    """Where the fit runs: continuous (scaled by ``scale`` rad per time unit) or discrete."""
+    """Where the fit runs: continuous (scaled by ``scale`` rad per time unit) or discrete.
+
+    For discrete data ``scale`` is the lines' geometric mean of ``tan(omega Ts / 2)``, the
+    frequency of the Tustin variable ``s = (z - 1) / (z + 1)``; the subspace start spreads the
+    lines by the disc's automorphism ``w = (z + a) / (1 + a z)``, ``a = (scale - 1) / (scale + 1)``
+    (``s / scale`` through the continuous path's bilinear map), so that log-spaced lines, which
+    crowd near ``z = 1`` where the powers ``z^i`` hardly differ, spread as a continuous system's
+    do (docs/frequency.md §2). Lines spread evenly over the band give ``scale = 1``: no map.
+    """
 
     continuous: bool
     scale: float
@@ -48,9 +58,32 @@ class FitDomain:
     def points(self, data: FrequencyData) -> np.ndarray:
         return 1j * data.omega / self.scale if self.continuous else data.points
 
+    @property
+    def spread(self) -> float:
+        """The automorphism's ``a`` (discrete data)."""
+        return (self.scale - 1.0) / (self.scale + 1.0)
+
     def circle(self, data: FrequencyData) -> np.ndarray:
-        """The lines on the unit circle, where the subspace method works."""
-        return bilinear_points(self.points(data)) if self.continuous else self.points(data)
+        """The lines on the unit circle, spread, where the subspace method works."""
+        points = self.points(data)
+        if self.continuous:
+            return bilinear_points(points)
+        return (points + self.spread) / (1.0 + self.spread * points)
+
+    def from_circle(self, A: np.ndarray, C: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+        """``A`` and ``C`` of a model on :meth:`circle` in the fit domain, up to a similarity (``B`` and ``D``
+        are fitted there); None where a pole maps to infinity (no model in the fit domain has it).
+
+        ``w I - A_w`` is ``(z (I - a A_w) - (A_w - a I)) / (1 + a z)`` at ``w = (z + a) / (1 + a z)``:
+        ``A = (I - a A_w)^-1 (A_w - a I)`` and ``C = C_w (I - a A_w)^-1``; in a continuous domain, where
+        ``s = (w - 1) / (w + 1)``, ``A = (A_w + I)^-1 (A_w - I)`` and ``C = C_w (A_w + I)^-1``.
+        """
+        order = A.shape[0]
+        shifted, moved = ((A + np.eye(order), A - np.eye(order)) if self.continuous
+                          else (np.eye(order) - self.spread * A, A - self.spread * np.eye(order)))
+        if np.linalg.cond(shifted) > MAX_SHIFT_CONDITION:
+            return None
+        return np.linalg.solve(shifted, moved), np.linalg.solve(shifted.T, C.T).T
 
 
 @dataclass
@@ -88,11 +121,16 @@ class FrequencyStep:
     start: str = "subspace"
 
 
+def _geometric_mean(values: np.ndarray) -> float:
+    inside = values[(values > 0) & np.isfinite(values)]
+    return float(np.exp(np.mean(np.log(inside)))) if inside.size else 1.0
+
+
 def fit_domain(data: FrequencyData) -> FitDomain:
     if data.Ts is not None:
-        return FitDomain(False, 1.0)
-    positive = data.omega[data.omega > 0]
-    return FitDomain(True, float(np.exp(np.mean(np.log(positive)))) if positive.size else 1.0)
+        # the Nyquist line (tan = inf) and the zero line (tan = 0) lie where the map leaves them
+        return FitDomain(False, _geometric_mean(np.tan(np.minimum(data.omega * data.Ts / 2, np.pi / 2))))
+    return FitDomain(True, _geometric_mean(data.omega))
 
 
 def weights_of(data: FrequencyData) -> np.ndarray:
@@ -138,16 +176,14 @@ def held_out_shares(layout: ModalLayout, theta: np.ndarray, problem: FitProblem)
 
 
 def start_model(basis: np.ndarray, order: int, problem: FitProblem, settings: FrequencySettings,
-                continuous: bool) -> tuple[ModalLayout, np.ndarray] | None:
+                domain: FitDomain) -> tuple[ModalLayout, np.ndarray] | None:
     """The subspace model of ``order`` states in modal form (its unstable poles mirrored when stability is asked)."""
-    A, C = poles_and_output(basis, order, problem.G.shape[1])
-    if continuous:
-        shifted = A + np.eye(order)
-        if np.linalg.cond(shifted) > MAX_SHIFT_CONDITION:
-            return None
-        A, C = np.linalg.solve(shifted, A - np.eye(order)), np.linalg.solve(shifted.T, C.T).T
+    mapped = domain.from_circle(*poles_and_output(basis, order, problem.G.shape[1]))
+    if mapped is None:
+        return None
+    A, C = mapped
     B, D = input_and_feedthrough(A, C, problem.points, problem.G, problem.weights, settings.feedthrough)
-    return modal_start(A, B, C, D, problem, settings, continuous=continuous)
+    return modal_start(A, B, C, D, problem, settings, continuous=domain.continuous)
 
 
 def modal_start(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, problem: FitProblem,
@@ -166,11 +202,11 @@ def modal_start(A: np.ndarray, B: np.ndarray, C: np.ndarray, D: np.ndarray, prob
 
 
 def fit_order(order: int, basis: np.ndarray, estimation: FitProblem, held_out: FitProblem,
-              settings: FrequencySettings, continuous: bool, *, refine: bool) -> FrequencyStep | None:
+              settings: FrequencySettings, domain: FitDomain, *, refine: bool) -> FrequencyStep | None:
     """The step of ``order``: the start, refined when ``refine`` (under "guarded", kept where the held-out
     lines prefer it), on at most :data:`PATH_LINES` of the estimation lines."""
-    start = start_model(basis, order, estimation, settings, continuous)
-    return None if start is None else judged_step(order, start, estimation, held_out, settings, continuous,
+    start = start_model(basis, order, estimation, settings, domain)
+    return None if start is None else judged_step(order, start, estimation, held_out, settings, domain.continuous,
                                                   refine=refine)
 
 
@@ -183,7 +219,7 @@ def judged_step(order: int, start: tuple[ModalLayout, np.ndarray], estimation: F
     if refine:
         lines = thinned(estimation, PATH_LINES)
         result = refine_modal(layout, theta, lines, continuous=continuous, radius=settings.radius,
-                              max_steps=PATH_STEPS)
+                              max_steps=PATH_STEPS, relative_decrease=PATH_RELATIVE_DECREASE)
         refined_shares = held_out_shares(layout, result.theta, held_out)
         if settings.refine != "guarded" or refined_shares.sum() <= shares.sum():
             fitted, refined, shares = result.theta, True, refined_shares
