@@ -41,8 +41,7 @@ from ..selection.paired_test import error_shares, paired_difference
 from .fit_error import LINE_CHUNK, FitProblem, cost, response, weighted_jacobian
 from .modal_form import ModalLayout, is_stable
 from .orders import FitDomain, band_wide_order, problem_on, start_model, subspace_basis
-from .refinement import FIRST_DAMPING, GROW, MAX_DAMPING, MAX_STEPS, PATH_RELATIVE_DECREASE, PATH_STEPS, \
-    RELATIVE_DECREASE, SHRINK, refine_modal
+from .refinement import MAX_STEPS, PATH_RELATIVE_DECREASE, PATH_STEPS, RELATIVE_DECREASE, descend, refine_modal
 from .settings import FrequencySettings
 
 __all__ = ["DelayFit", "fit_delays", "forced_delays", "compensated", "with_delays", "delay_grid", "refine_with_delays",
@@ -200,31 +199,26 @@ def refine_with_delays(layout: ModalLayout, theta: np.ndarray, delays: np.ndarra
         refined = refine_modal(layout, theta, _problem(lines, domain, delays), continuous=domain.continuous,
                                radius=radius, max_steps=max_steps, relative_decrease=relative_decrease)
         return refined.theta, delays, refined.cost
-    theta, damping, steps = theta.copy(), FIRST_DAMPING, 0
-    N, g, current = _normal_equations(layout, theta, _problem(lines, domain, delays), lines.omega, free)
-    while steps < max_steps and current > 0:
-        steps += 1
-        scale = np.sqrt(np.maximum(np.diag(N), np.finfo(float).tiny))
-        improved = False
-        while damping <= MAX_DAMPING:
-            step = np.linalg.lstsq(N + damping * np.diag(scale**2), -g, rcond=None)[0]
-            trial, trial_delays = theta + step[:layout.size], delays.copy()
-            trial_delays[free] = np.maximum(delays[free] + step[layout.size:], 0.0)     # no advance: causal
-            trial_cost = (cost(layout, trial, _problem(lines, domain, trial_delays))
-                          if is_stable(layout, trial, domain.continuous, radius) else np.inf)
-            if trial_cost < current:
-                improved = True
-                break
-            damping *= GROW
-        if not improved:
-            break
-        decrease = current - trial_cost
-        theta, delays, damping = trial, trial_delays, max(damping * SHRINK, 1e-12)
-        if decrease <= relative_decrease * current:
-            current = trial_cost
-            break
-        N, g, current = _normal_equations(layout, theta, _problem(lines, domain, delays), lines.omega, free)
-    return theta, delays, current
+
+    def unpacked(point: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        point_delays = delays.copy()
+        point_delays[free] = point[layout.size:]
+        return point[:layout.size], point_delays
+
+    def linearize(point: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+        point_theta, point_delays = unpacked(point)
+        return _normal_equations(layout, point_theta, _problem(lines, domain, point_delays), lines.omega, free)
+
+    def propose(point: np.ndarray, step: np.ndarray) -> tuple[np.ndarray, float]:
+        trial = point + step
+        trial[layout.size:] = np.maximum(trial[layout.size:], 0.0)                   # no advance: causal
+        trial_theta, trial_delays = unpacked(trial)
+        return trial, (cost(layout, trial_theta, _problem(lines, domain, trial_delays))
+                       if is_stable(layout, trial_theta, domain.continuous, radius) else np.inf)
+
+    refined = descend(linearize, propose, np.concatenate([theta, delays[free]]), max_steps=max_steps,
+                      relative_decrease=relative_decrease)
+    return (*unpacked(refined.theta), refined.cost)
 
 
 def _fitted(order: int, delays: np.ndarray, free: np.ndarray, estimation: FrequencyData, judged: FrequencyData, *,

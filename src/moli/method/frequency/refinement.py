@@ -21,13 +21,14 @@ few lines; the second from those lines' residuals, a noisy estimate (docs/freque
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 
 from .fit_error import FitProblem, cost, normal_equations, score_spread
 from .modal_form import ModalLayout, is_stable, matrix_jacobian
 
-__all__ = ["Refined", "refine_modal", "covariance_factor", "MAX_STEPS", "PATH_STEPS", "RELATIVE_DECREASE",
+__all__ = ["Refined", "descend", "refine_modal", "covariance_factor", "MAX_STEPS", "PATH_STEPS", "RELATIVE_DECREASE",
            "PATH_RELATIVE_DECREASE"]
 
 # Jacobians a refinement may form: from the subspace start a fit converges in 5-20.
@@ -62,22 +63,20 @@ def _step(curvature: np.ndarray, gradient: np.ndarray, scale: np.ndarray, dampin
     return np.linalg.lstsq(curvature + damping * np.diag(scale**2), -gradient, rcond=None)[0]
 
 
-def refine_modal(layout: ModalLayout, theta: np.ndarray, problem: FitProblem, *, continuous: bool,
-                 radius: float | None, max_steps: int = MAX_STEPS,
-                 relative_decrease: float = RELATIVE_DECREASE) -> Refined:
-    """Minimize the weighted FRF error from ``theta`` (stable where ``radius`` is not None), forming
-    ``max_steps`` Jacobians at most and stopping at a step that lowers the cost by less than
-    ``relative_decrease`` of it."""
-    theta = theta.copy()
+def descend(linearize: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray, float]],
+            propose: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, float]], start: np.ndarray, *,
+            max_steps: int, relative_decrease: float) -> Refined:
+    """Levenberg-Marquardt from ``start``: ``linearize(x)`` gives ``J^T J``, ``J^T r`` and the cost at ``x``,
+    ``propose(x, step)`` the point a step leads to and its cost (inf where the point is refused)."""
+    x = start
     damping, steps = FIRST_DAMPING, 0
-    N, g, current = normal_equations(layout, theta, problem)
+    N, g, current = linearize(x)
     while steps < max_steps and current > 0:
         steps += 1
         scale = np.sqrt(np.maximum(np.diag(N), np.finfo(float).tiny))
         improved = False
         while damping <= MAX_DAMPING:
-            trial = theta + _step(N, g, scale, damping)
-            trial_cost = cost(layout, trial, problem) if is_stable(layout, trial, continuous, radius) else np.inf
+            trial, trial_cost = propose(x, _step(N, g, scale, damping))
             if trial_cost < current:
                 improved = True
                 break
@@ -85,12 +84,26 @@ def refine_modal(layout: ModalLayout, theta: np.ndarray, problem: FitProblem, *,
         if not improved:
             break
         decrease = current - trial_cost
-        theta, damping = trial, max(damping * SHRINK, 1e-12)
+        x, damping = trial, max(damping * SHRINK, 1e-12)
         if decrease <= relative_decrease * current:
             current = trial_cost
             break
-        N, g, current = normal_equations(layout, theta, problem)
-    return Refined(theta, current, steps)
+        N, g, current = linearize(x)
+    return Refined(x, current, steps)
+
+
+def refine_modal(layout: ModalLayout, theta: np.ndarray, problem: FitProblem, *, continuous: bool,
+                 radius: float | None, max_steps: int = MAX_STEPS,
+                 relative_decrease: float = RELATIVE_DECREASE) -> Refined:
+    """Minimize the weighted FRF error from ``theta`` (stable where ``radius`` is not None), forming
+    ``max_steps`` Jacobians at most and stopping at a step that lowers the cost by less than
+    ``relative_decrease`` of it."""
+    def propose(point: np.ndarray, step: np.ndarray) -> tuple[np.ndarray, float]:
+        trial = point + step
+        return trial, cost(layout, trial, problem) if is_stable(layout, trial, continuous, radius) else np.inf
+
+    return descend(lambda point: normal_equations(layout, point, problem), propose, theta.copy(),
+                   max_steps=max_steps, relative_decrease=relative_decrease)
 
 
 def covariance_factor(layout: ModalLayout, theta: np.ndarray, problem: FitProblem, *,
