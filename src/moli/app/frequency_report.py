@@ -66,14 +66,24 @@ def delays_text(model: Any) -> str:
                                   f"; estimated before the held-out test: {', '.join(f'{d:.6g}' for d in estimated)}")
 
 
+def _shape_entry(mode: Any, output: int) -> str:
+    """One output's shape entry, magnitude and phase, with their standard deviations where the model has them."""
+    value = mode.shape[output]
+    # whole degrees as an int: round-off never prints "-0"
+    degrees = round(float(np.degrees(np.angle(value))))
+    if mode.shape_magnitude_std is None or mode.shape_magnitude_std[output] == 0:
+        return f"{abs(value):.3f} ∠ {degrees}°"
+    return (f"{abs(value):.3f} ± {mode.shape_magnitude_std[output]:.2g} ∠ {degrees}° "
+            f"± {np.degrees(mode.shape_phase_std[output]):.2g}°")
+
+
 def _modal_table(model: Any) -> str:
     outputs = "".join(f"<th>shape {html.escape(report_name(name))}</th>" for name in model.output_names)
     head = "<th>mode</th><th>natural frequency (rad/s)</th><th>(Hz)</th><th>damping ratio</th>" + outputs
     rows = []
     for k, mode in enumerate(modes(model), 1):
         hz_std = None if mode.natural_frequency_std is None else mode.natural_frequency_std / (2 * np.pi)
-        # whole degrees as an int: round-off never prints "-0"
-        shape = "".join(f"<td>{abs(v):.3f} ∠ {round(float(np.degrees(np.angle(v))))}°</td>" for v in mode.shape)
+        shape = "".join(f"<td>{_shape_entry(mode, output)}</td>" for output in range(mode.shape.size))
         rows.append(f"<tr><td>{k}{'' if mode.oscillatory else ' (real)'}</td>"
                     f"<td>{_with_std(mode.natural_frequency, mode.natural_frequency_std, 4)}</td>"
                     f"<td>{_with_std(mode.frequency_hz, hz_std, 4)}</td>"
@@ -261,7 +271,7 @@ what the method assumes.</p>
 {facts_table(_provenance(None if data_file is None else Path(data_file), model.info.get("data", {})))}
 <h2>Selected model</h2>{facts_table(facts)}
 {warnings_section(warnings)}
-<h3>Modes (± one standard deviation; shapes: each output's share, largest 1)</h3>{_modal_table(model)}
+<h3>Modes (± one standard deviation; shapes: each output's share, largest 1, magnitude ∠ phase)</h3>{_modal_table(model)}
 <h2>Orders tried</h2>
 <p class="note">Held-out VAF: the weighted fit on the held-out lines, percent. Cost: the weighted squared error
 on the estimation lines.</p>

@@ -13,7 +13,12 @@ first order: a simple eigenvalue moves by ``d lambda = w^H dA v / (w^H v)`` (``w
 eigenvector), a sampled pole's continuous equivalent by ``dz / (z Ts)``, and
 ``d omega_n = Re(conj(lambda) d lambda) / |lambda|``,
 ``d zeta = -Re(d lambda) / |lambda| - Re(lambda) d omega_n / |lambda|^2``, summed in squares over
-the factor's independent directions.
+the factor's independent directions. The shape ``phi = C v / (C v)_r`` (``r`` its largest entry)
+moves with ``C`` and with the eigenvector, ``dv = sum_(j != i) v_j (w_j^H dA v) / (lambda_i - lambda_j)``
+(the part along ``v`` itself only rescales ``C v``, which the division by ``(C v)_r`` takes out):
+``d phi = (d(C v) - phi d(C v)_r) / (C v)_r``, and each output's magnitude moves by
+``Re(conj(phi) d phi) / |phi|`` and its phase by ``Im(d phi / phi)``. The reference output's
+entry is 1 by construction: its standard deviations are 0.
 """
 
 from __future__ import annotations
@@ -53,6 +58,10 @@ class Mode:
         A complex pair (True) or a real pole.
     natural_frequency_std, damping_std : float or None
         First-order standard deviations from the model's covariance; None without one.
+    shape_magnitude_std, shape_phase_std : ndarray, shape (p,), or None
+        First-order standard deviations of each output's ``|shape|`` and of its phase (radians)
+        from the model's covariance; None without one, not finite where another pole coincides
+        with this one (the eigenvector is then not a smooth function of ``A``).
     """
 
     pole: complex
@@ -63,6 +72,8 @@ class Mode:
     oscillatory: bool
     natural_frequency_std: float | None = None
     damping_std: float | None = None
+    shape_magnitude_std: np.ndarray | None = None
+    shape_phase_std: np.ndarray | None = None
 
 
 def _spreads(model: Any, value: complex, vector: np.ndarray, left: np.ndarray,
@@ -84,6 +95,33 @@ def _spreads(model: Any, value: complex, vector: np.ndarray, left: np.ndarray,
     natural = np.real(np.conj(pole) * moved) / scale
     damping = -np.real(moved) / scale - pole.real * natural / scale**2
     return float(np.sqrt(np.sum(natural**2))), float(np.sqrt(np.sum(damping**2)))
+
+
+def _shape_spreads(model: Any, index: int, eigenvalues: np.ndarray, vectors: np.ndarray, lefts: np.ndarray, *,
+                   shape: np.ndarray, reference: int) -> tuple[np.ndarray, np.ndarray] | tuple[None, None]:
+    """Standard deviations of each output's shape magnitude and phase for the eigenvalue ``index``."""
+    factor = getattr(model, "cov_factor", None)
+    if factor is None:
+        return None, None
+    factor = np.asarray(factor)
+    n, p, m = vectors.shape[0], shape.size, np.asarray(model.B).shape[1]
+    dA = factor[: n * n].T.reshape(-1, n, n)
+    dC = factor[n * n + n * m: n * n + n * m + p * n].T.reshape(-1, p, n)
+    vector, C = vectors[:, index], np.asarray(model.C, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inverse_gaps = 1.0 / (eigenvalues[index] - eigenvalues)
+    inverse_gaps[index] = 0.0
+    coupling = np.einsum("rj,krs,s->kj", lefts.conj(), dA, vector) * inverse_gaps              # (K, n)
+    with np.errstate(invalid="ignore"):
+        moved = np.einsum("kpn,n->kp", dC, vector) + (coupling @ vectors.T) @ C.T               # d(C v), (K, p)
+    normalized = shape / shape[reference]
+    d_shape = (moved - np.outer(moved[:, reference], normalized)) / shape[reference]
+    d_shape[:, reference] = 0.0                                 # 1 by construction; round-off apart
+    present = np.abs(normalized) > 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        magnitude = np.where(present, np.real(np.conj(normalized) * d_shape) / np.abs(normalized), 0.0)
+        phase = np.where(present, np.imag(d_shape / normalized), 0.0)
+    return np.sqrt(np.sum(magnitude**2, axis=0)), np.sqrt(np.sum(phase**2, axis=0))
 
 
 def modes(model: Any) -> tuple[Mode, ...]:
@@ -117,26 +155,30 @@ def modes(model: Any) -> tuple[Mode, ...]:
     A, C = np.asarray(model.A, float), np.asarray(model.C, float)
     if A.shape[0] == 0:
         raise DataError("the model has no states, hence no modes")
-    values, vectors = np.linalg.eig(A)
+    eigenvalues, vectors = np.linalg.eig(A)
     lefts = np.linalg.inv(vectors).conj().T            # w_i^H A = lambda_i w_i^H, w_i^H v_i = 1
+    values = eigenvalues                               # continuous-time equivalents, below for a sampled model
     Ts = getattr(model, "Ts", None)
     if Ts is not None:
-        if np.any(np.abs(values) == 0):
+        if np.any(np.abs(eigenvalues) == 0):
             raise DataError("the sampled model has a pole at z = 0 (a pure delay): it has no continuous-time "
                             "equivalent; convert the delay states out (model.delays_as_states) or drop them")
-        values = np.log(values.astype(complex)) / Ts
+        values = np.log(eigenvalues.astype(complex)) / Ts
     found = []
-    for value, vector, left in zip(values, vectors.T, lefts.T):
+    for index, (value, vector, left) in enumerate(zip(values, vectors.T, lefts.T)):
         scale = abs(value)
         oscillatory = value.imag > REAL_POLE * scale
         if value.imag < -REAL_POLE * scale:
             continue                                    # the pair is reported once, by its upper pole
         shape = C @ vector
-        largest = shape[np.argmax(np.abs(shape))] if shape.size and np.any(shape) else 1.0
+        reference = int(np.argmax(np.abs(shape))) if shape.size else 0
+        shape_spreads = _shape_spreads(model, index, eigenvalues, vectors, lefts, shape=shape, reference=reference) \
+            if shape.size and np.any(shape) else (None, None)
+        largest = shape[reference] if shape.size and np.any(shape) else 1.0
         shape = shape / largest
         pole = complex(value) if oscillatory else complex(value.real, 0.0)
         damping = -pole.real / scale if scale > 0 else float("nan")
         spreads = _spreads(model, complex(value), vector, left, Ts)
         found.append(Mode(pole, float(scale), float(scale / (2 * np.pi)), float(damping), shape, bool(oscillatory),
-                          *spreads))
+                          *spreads, *shape_spreads))
     return tuple(sorted(found, key=lambda mode: mode.natural_frequency))
