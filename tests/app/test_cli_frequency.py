@@ -179,14 +179,45 @@ def test_the_report_draws_the_data_s_coherence_under_the_phase_where_given(tmp_p
     assert not (tmp_path / "without" / "coherence.png").exists() and "coherence on each line" not in page
 
 
-def test_coherence_columns_reach_the_report_of_the_command(tmp_path, monkeypatch):
-    monkeypatch.chdir(tmp_path)
+def write_coherent_frf(path: Path) -> Path:
+    """The responses of :func:`responses` with a coherence column of 0.9 per pair."""
     columns = {"frequency_hz": HZ}
     for pair, g in responses(HZ).items():
         columns[f"{pair} re"], columns[f"{pair} im"], columns[f"{pair} coh"] = g.real, g.imag, np.full(HZ.size, 0.9)
     rows = np.column_stack(list(columns.values()))
-    Path("frf.csv").write_text(",".join(columns) + "\n" + "\n".join(",".join(f"{v:.17g}" for v in row)
-                                                                     for row in rows) + "\n")
+    path.write_text(",".join(columns) + "\n" + "\n".join(",".join(f"{v:.17g}" for v in row) for row in rows) + "\n")
+    return path
+
+
+def test_coherence_columns_reach_the_report_of_the_command(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    write_coherent_frf(Path("frf.csv"))
     done = run("fit", "frf.csv", "--frequency", "--outputs", "accel", "--nmax", "4")
     assert done.exit_code == 0, done.output
     assert Path("moli-fit-frf/report/coherence.png").is_file()
+
+
+def test_averages_turn_the_coherence_into_the_lines_variance(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    write_coherent_frf(Path("frf.csv"))
+    done = run("fit", "frf.csv", "--frequency", "--outputs", "accel", "--nmax", "4", "--averages", "16")
+    assert done.exit_code == 0, done.output
+    said = " ".join(json.loads(Path("moli-fit-frf/model.json").read_text())["info"]["warnings"])
+    assert "the variance from it and 16 averages" in said
+    # the same lines read in Python with the same averages carry the variance (1 - 0.9) |G|^2 / (16 x 0.9)
+    with pytest.warns(moli.FrequencyConventionWarning, match="16 averages"):
+        data = moli.read_frequency_data("frf.csv", averages=16)
+    np.testing.assert_allclose(data.variance, 0.1 * np.abs(data.G) ** 2 / (16 * 0.9), rtol=1e-12)
+
+
+@pytest.mark.parametrize(("frequency", "said"), [
+    (True, "averages turns a coherence into a variance"),
+    (False, "--averages applies to --frequency"),
+])
+def test_averages_without_a_coherence_to_turn_are_one_error_line(frequency, said, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    write_frf(tmp_path / "frf.csv")
+    done = run("fit", "frf.csv", *(["--frequency"] if frequency else ["--inputs", "force"]), "--averages", "8")
+    assert done.exit_code == 2
+    assert done.stderr.splitlines() == [done.stderr.strip()] and said in done.stderr
+    assert not (tmp_path / "moli-fit-frf").exists()

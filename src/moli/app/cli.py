@@ -267,6 +267,8 @@ def demo(out_dir: Path, nmax: int, all_lists: bool, force: bool) -> None:
               "(TC kernel) impulse response, order chosen on validation (docs/regularization.md) [default: moli].")
 @click.option("--frequency", is_flag=True, help="DATA is a measured frequency response (a CSV of "
               "'<output>/<input> <part>' columns, docs/frequency.md): fit a model to it.")
+@click.option("--averages", type=click.IntRange(min=1), help="With --frequency: the spectra averaged per line, "
+              "which turns the file's coherence columns into each line's variance (docs/frequency.md §1).")
 @_FORCE
 @reading_options
 def fit(*, data_files: tuple[Path, ...], inputs: str | None, outputs: str | None, daisy: str | None,
@@ -274,7 +276,7 @@ def fit(*, data_files: tuple[Path, ...], inputs: str | None, outputs: str | None
         order: int | None, fraction: float, seed: int | None, preset: str | None, x0: str | None,
         outliers: str, model_path: Path | None, report_dir: Path | None, all_lists: bool,
         continuous: bool, input_hold: str | None, reference: str | None, closed_loop: str | None,
-        method: str | None, frequency: bool, force: bool, **reading: Any) -> None:
+        method: str | None, frequency: bool, averages: int | None, force: bool, **reading: Any) -> None:
     """Identify a model from a data file, several runs of one plant, or a DaISy set.
 
     DATA is a text table (.csv .tsv .txt), an Excel workbook (.xlsx), Parquet, .npz or
@@ -286,6 +288,9 @@ def fit(*, data_files: tuple[Path, ...], inputs: str | None, outputs: str | None
     """
     if frequency:       # flags read by name there, the time-domain ones refused
         click.get_current_context().exit(fit_frequency(click.get_current_context(), options_from_flags))
+    if averages is not None:
+        raise OptionError("--averages applies to --frequency (a frequency response's coherence), not to a time "
+                          "record; leave it out")
     if bool(data_files) == (daisy is not None):
         raise DataError("give either DATA files or --daisy NAME")
     for flag, named in (("--inputs", inputs), ("--outputs", outputs)):

@@ -41,7 +41,7 @@ __all__ = ["fit_frequency", "FREQUENCY_FLAGS", "selected_channels", "summary"]
 
 # The parameters of ``moli fit`` that a frequency-response fit reads; any other flag given is refused.
 FREQUENCY_FLAGS = ("data_files", "inputs", "outputs", "ts", "options_file", "nmax", "order", "model_path",
-                   "report_dir", "force", "frequency", "delimiter")
+                   "report_dir", "force", "frequency", "delimiter", "averages")
 # --delimiter's words, as the time-record readers take them
 DELIMITER_WORDS = {"tab": "\t", "whitespace": r"\s+"}
 
@@ -140,7 +140,8 @@ def fit_frequency(ctx: click.Context, options_from_flags: Callable[..., Identify
     delimiter = flags["delimiter"]
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", FrequencyConventionWarning)
-        data = read_frequency_data(path, Ts=flags["ts"], sep=DELIMITER_WORDS.get(delimiter, delimiter or ","))
+        data = read_frequency_data(path, Ts=flags["ts"], sep=DELIMITER_WORDS.get(delimiter, delimiter or ","),
+                                   averages=flags["averages"])
     noted.add([w for w in caught if issubclass(w.category, FrequencyConventionWarning)])
     data = selected_channels(data, names(flags["inputs"]), names(flags["outputs"]), str(path))
     click.echo(f"{console_text(str(path))}: {data!r}")
