@@ -113,7 +113,9 @@ BAD = [
     (["fit", "good.csv", *IO, "--method", "kernel", "--continuous"], "identifies sampled models"),
     (["fit", "still.csv", *IO, "--method", "kernel"], "input u3 never changes"),
     (["fit", "good.csv", "--frequency", "--method", "kernel"], "--method does not apply to --frequency"),
-    (["fit-many", *IO, "--out", "many", "good.csv", "--options", "kernel.json"], "asks for method='kernel'"),
+    (["fit", "good.csv", "--frequency", "--options", "kernel.json"], "asks for method='kernel'"),
+    (["fit-many", *IO, "--out", "many", "good.csv", "--method", "kernel", "--preset", "fast"],
+     "method='kernel' does not read"),
 ]
 
 
@@ -124,3 +126,16 @@ def test_bad_kernel_command_lines_end_with_one_error_line(folder, args, message)
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("moli: error: ") and message in lines[0], result.stderr
     assert not list(folder.rglob("model.json")) and not list(folder.rglob("report.html"))
+
+
+def test_fit_many_runs_the_kernel_method_per_record_and_lists_the_one_it_cannot_fit(folder):
+    result = run(folder, "fit-many", *IO, "--out", "many", "good.csv", "still.csv", "--method", "kernel",
+                 "--nmax", "4", "--workers", "1")
+    assert result.exit_code == 1, result.output          # a record failed: listed, the others kept
+    saved = json.loads((folder / "many" / "good.json").read_text())
+    assert saved["info"]["method"] == "kernel" and saved["info"]["options"]["method"] == "kernel"
+    # the same record through moli fit: one method, one model (the same arithmetic in the same process)
+    assert run(folder, "fit", "good.csv", *IO, "--method", "kernel", "--nmax", "4", "--out", "one.json").exit_code == 0
+    one = json.loads((folder / "one.json").read_text())
+    assert saved["A"] == one["A"] and saved["C"] == one["C"]
+    assert "input u3 never changes" in (folder / "many" / "summary.csv").read_text()

@@ -8,7 +8,6 @@ partial run gives 3, Ctrl-C before any model is written 130 (:mod:`moli.app.cons
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 from pathlib import Path
@@ -41,6 +40,7 @@ from .outputs import MODEL_WRITTEN, REPORT_FILE, fit_outputs, refuse_overwrite, 
 from .progress import READING_SHOWN_AFTER, Phases
 from .reading import RunWarnings, names, read_records, reading_options
 from .console import PARTIAL, USAGE_ERROR, InterruptHold, interrupted
+from .flag_options import options_from_flags
 from .continuous_fit import fit_continuous
 from .frequency_fit import fit_frequency
 from .kernel_fit import fit_kernel
@@ -83,50 +83,6 @@ class _Group(click.Group):
         except KeyboardInterrupt:   # 3 once the model is written (docs/cli.md, exit codes)
             written = ctx.meta.get(MODEL_WRITTEN)
             ctx.exit(interrupted(None if written is None else console_text(written)))
-
-
-def options_from_flags(options_file: Path | None, preset: str | None, *, runs_kernel: bool = False,
-                       **flags: Any) -> IdentifyOptions:
-    """The one place where command-line flags become :class:`IdentifyOptions`.
-
-    ``--options FILE`` (a JSON options dict, e.g. ``model.json``'s ``info.options``)
-    or ``--preset`` gives the base; every flag given on the command line (not None)
-    then replaces its field. A saved model's options keep the model's time domain: a
-    continuous model's run in continuous time (``time`` is set from the file's own
-    ``time``), and a file whose options say the other domain is refused. A file asking for
-    ``method='kernel'`` is refused unless the command runs it (``runs_kernel``).
-    """
-    given = {name: value for name, value in flags.items() if value is not None}
-    if options_file is None:
-        return IdentifyOptions.preset(preset or "default", **given)
-    if preset is not None:
-        raise OptionError("give either --options FILE or --preset, not both")
-    try:
-        content = json.loads(Path(options_file).read_text())
-    except FileNotFoundError:
-        raise OptionError(f"--options: no file at {options_file}") from None
-    except (ValueError, RecursionError) as exc:  # bad JSON or UTF-8, too deep, integers too long
-        raise OptionError(f"--options: {options_file} is not a JSON file: {exc}") from None
-    if isinstance(content, dict) and content.get("format") == "moli-model":
-        content = _model_options(content, options_file)
-    options = IdentifyOptions.from_dict(content).replace(**given)
-    if options.method == "kernel" and not runs_kernel:
-        raise OptionError(f"--options: {options_file} asks for method='kernel', which only moli fit of a time "
-                          "record runs: use moli fit DATA --method kernel, or method 'moli'")
-    return options
-
-
-def _model_options(model: dict[str, Any], options_file: Path) -> dict[str, Any]:
-    """A saved model's options (the ones that made it), in the model's own time domain."""
-    info = model.get("info")
-    options = info.get("options", {}) if isinstance(info, dict) else {}
-    if not isinstance(options, dict):
-        raise OptionError(f"--options: {options_file} holds a model whose info.options is not a JSON object")
-    domain = "continuous" if model.get("time") == "continuous" else "discrete"
-    if options.get("time", domain) != domain:
-        raise OptionError(f"--options: {options_file} holds a {domain}-time model whose options say "
-                          f"time={options['time']!r}; the file is inconsistent: name the options in a file of their own")
-    return {**options, "time": domain}
 
 
 def _identify(data: IOData, fraction: float, options: IdentifyOptions, noted: RunWarnings,

@@ -12,7 +12,7 @@ from ..continuous.identification import ContinuousResult, identify_continuous
 from ..kernel.kernel_model import KernelResult, identify_kernel
 from ..options.identify_options import IdentifyOptions
 
-__all__ = ["handed_over", "HandedOver", "KERNEL_READS"]
+__all__ = ["handed_over", "check_kernel_options", "HandedOver", "KERNEL_READS"]
 
 # What the identifications handed over return.
 HandedOver = ContinuousResult | KernelResult
@@ -22,23 +22,36 @@ HandedOver = ContinuousResult | KernelResult
 KERNEL_READS = frozenset({"nmax", "x0", "center", "feedthrough", "method"})
 
 
-def handed_over(estimation: IOData, validation: IOData, source: str, options: IdentifyOptions,
-                progress: Callable[..., None] | None, phase: Callable[[str], None] | None,
-                ) -> HandedOver | None:
-    """The result of the identification ``options`` ask for where it is not the sampled MOLI
-    path's; None where it is."""
-    if options.time == "continuous" and options.method == "kernel":
-        raise OptionError("method='kernel' identifies sampled models: leave time at 'discrete'")
-    if options.time == "continuous":
-        return identify_continuous(estimation, validation, source, options, progress, phase)
+def check_kernel_options(options: IdentifyOptions) -> None:
+    """Raise :class:`OptionError` where ``options`` ask for the kernel method with a choice it does not read.
+
+    Parameters
+    ----------
+    options : IdentifyOptions
+        Options whose ``method`` is "kernel" (others pass).
+    """
     if options.method != "kernel":
-        return None
+        return
+    if options.time == "continuous":
+        raise OptionError("method='kernel' identifies sampled models: leave time at 'discrete'")
     default = IdentifyOptions()
     changed = [f.name for f in fields(IdentifyOptions)
                if f.name not in KERNEL_READS and getattr(options, f.name) != getattr(default, f.name)]
     if changed:
         raise OptionError(f"method='kernel' does not read {', '.join(changed)}: leave "
                           f"{'it' if len(changed) == 1 else 'them'} at the default, or use method='moli'")
+
+
+def handed_over(estimation: IOData, validation: IOData, source: str, options: IdentifyOptions,
+                progress: Callable[..., None] | None, phase: Callable[[str], None] | None,
+                ) -> HandedOver | None:
+    """The result of the identification ``options`` ask for where it is not the sampled MOLI
+    path's; None where it is."""
+    check_kernel_options(options)
+    if options.time == "continuous":
+        return identify_continuous(estimation, validation, source, options, progress, phase)
+    if options.method != "kernel":
+        return None
     result = identify_kernel(estimation, validation, nmax=options.nmax, x0=options.x0, center=options.center,
                              feedthrough=options.feedthrough is True)
     result.validation_source = source
