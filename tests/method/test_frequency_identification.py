@@ -238,24 +238,33 @@ def test_a_real_pole_is_one_mode_critically_damped_and_a_delay_state_has_none():
         moli.modes(moli.StateSpaceModel([[0.0]], [[1.0]], [[1.0]]))
 
 
+def _fitted_and_drawn(Ts: float | None, outputs: int, seed: int) -> tuple:
+    """The truth, a model fitted to its noisy response, and the modes of 4000 models drawn from that
+    model's covariance (A, B, C and D together)."""
+    truth = modal_system(FREQUENCIES[:2], DAMPINGS[:2], outputs, 1, seed=4)
+    omega = np.logspace(0, 2, 500)
+    plant = truth if Ts is None else truth.to_discrete(Ts)
+    model = moli.identify(noisy(plant, omega, 0.02, 5, Ts=Ts)).model
+    n, m, p = model.n, model.m, model.p
+    nominal = np.concatenate([model.A.ravel(), model.B.ravel(), model.C.ravel(), model.D.ravel()])
+    draws = nominal + np.random.default_rng(seed).standard_normal((4000, model.cov_factor.shape[1])) @ model.cov_factor.T
+    drawn = []
+    for vector in draws:
+        A, B, C, D = np.split(vector, np.cumsum([n * n, n * m, p * n]))
+        matrices = (A.reshape(n, n), B.reshape(n, m), C.reshape(p, n), D.reshape(p, m))
+        drawn.append(moli.modes(moli.ContinuousModel(*matrices, model.output_names, model.input_names, np.zeros(p),
+                                                     np.zeros(m), (0.0,) * m) if Ts is None
+                                else moli.StateSpaceModel(*matrices, Ts)))
+    return truth, model, drawn
+
+
 @pytest.mark.parametrize("Ts", [None, 0.01])
 def test_the_modes_standard_deviations_are_those_of_the_covariances_draws(Ts):
     # first-order spreads against the spread of the modes of 4000 models drawn from the same
     # covariance: the sample's standard deviation is off by 1/sqrt(2 x 4000) = 1.1 % of itself,
     # and the linearization by far less at a relative spread of 1e-4, so 5 % is 4.5 standard errors
-    truth = modal_system(FREQUENCIES[:2], DAMPINGS[:2], 2, 1, seed=4)
-    omega = np.logspace(0, 2, 500)
-    plant = truth if Ts is None else truth.to_discrete(Ts)
-    model = moli.identify(noisy(plant, omega, 0.02, 5, Ts=Ts)).model
-    found = moli.modes(model)
-    n = model.n
-    directions = model.cov_factor[: n * n]
-    draws = np.random.default_rng(8).standard_normal((4000, directions.shape[1])) @ directions.T
-    drawn = [moli.modes(moli.ContinuousModel(model.A + d.reshape(n, n), model.B, model.C, model.D, model.output_names,
-                                             model.input_names, np.zeros(2), np.zeros(1), (0.0,)) if Ts is None
-                        else moli.StateSpaceModel(model.A + d.reshape(n, n), model.B, model.C, model.D, Ts))
-             for d in draws]
-    for i, mode in enumerate(found):
+    truth, model, drawn = _fitted_and_drawn(Ts, 2, seed=8)
+    for i, mode in enumerate(moli.modes(model)):
         natural = np.std([modes[i].natural_frequency for modes in drawn])
         damping = np.std([modes[i].damping for modes in drawn])
         assert mode.natural_frequency_std == pytest.approx(natural, rel=0.05)
@@ -265,32 +274,17 @@ def test_the_modes_standard_deviations_are_those_of_the_covariances_draws(Ts):
 
 @pytest.mark.parametrize("Ts", [None, 0.01])
 def test_the_mode_shapes_standard_deviations_are_those_of_the_covariances_draws(Ts):
-    # as the test above, with the whole factor drawn (A, B, C and D: a shape moves with A's eigenvector
-    # and with C): 4000 draws give each standard deviation to 1.1 % of itself, so 5 % is 4.5 standard errors
-    truth = modal_system(FREQUENCIES[:2], DAMPINGS[:2], 3, 1, seed=4)
-    omega = np.logspace(0, 2, 500)
-    plant = truth if Ts is None else truth.to_discrete(Ts)
-    model = moli.identify(noisy(plant, omega, 0.02, 5, Ts=Ts)).model
-    found = moli.modes(model)
-    n, m, p = model.n, model.m, model.p
-    nominal = np.concatenate([model.A.ravel(), model.B.ravel(), model.C.ravel(), model.D.ravel()])
-    draws = nominal + np.random.default_rng(9).standard_normal((4000, model.cov_factor.shape[1])) @ model.cov_factor.T
-    shapes = []
-    for vector in draws:
-        A, B, C, D = np.split(vector, np.cumsum([n * n, n * m, p * n]))
-        matrices = (A.reshape(n, n), B.reshape(n, m), C.reshape(p, n), D.reshape(p, m))
-        drawn = (moli.ContinuousModel(*matrices, model.output_names, model.input_names, np.zeros(p), np.zeros(m),
-                                      (0.0,) * m) if Ts is None else moli.StateSpaceModel(*matrices, Ts))
-        shapes.append([mode.shape for mode in moli.modes(drawn)])
-    shapes = np.array(shapes)
-    for i, mode in enumerate(found):
+    # as the test above, for the shapes (they move with A's eigenvector and with C), 3 outputs
+    truth, model, drawn = _fitted_and_drawn(Ts, 3, seed=9)
+    shapes = np.array([[mode.shape for mode in modes] for modes in drawn])
+    for i, mode in enumerate(moli.modes(model)):
         reference = np.argmax(np.abs(mode.shape))
         # each draw scaled to its entry of the model's reference output (a draw's own largest entry
         # may be another output where two are close: the shape is the same up to that complex scale)
-        drawn = shapes[:, i] / shapes[:, i, reference, None]
-        others = np.arange(p) != reference
-        np.testing.assert_allclose(mode.shape_magnitude_std[others], np.abs(drawn).std(axis=0)[others], rtol=0.05)
-        np.testing.assert_allclose(mode.shape_phase_std[others], np.angle(drawn / mode.shape).std(axis=0)[others],
+        scaled = shapes[:, i] / shapes[:, i, reference, None]
+        others = np.arange(model.p) != reference
+        np.testing.assert_allclose(mode.shape_magnitude_std[others], np.abs(scaled).std(axis=0)[others], rtol=0.05)
+        np.testing.assert_allclose(mode.shape_phase_std[others], np.angle(scaled / mode.shape).std(axis=0)[others],
                                    rtol=0.05)
         assert mode.shape_magnitude_std[reference] == 0 and mode.shape_phase_std[reference] == 0
     assert moli.modes(truth)[0].shape_magnitude_std is None
