@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 import scipy.linalg
@@ -232,10 +234,11 @@ def test_a_kernel_model_goes_through_save_info_validate_and_a_fleet(tmp_path):
     scored = runner.invoke(cli, ["validate", str(tmp_path / "kernel.json"), str(tmp_path / "plant.csv"),
                                  "--inputs", "u1,u2,u3", "--outputs", "y1,y2,y3", "--out", str(tmp_path / "v")])
     assert scored.exit_code == 0, scored.output
-    # fit-many does not run the kernel method: its options are refused in one line, before any work
-    refused = runner.invoke(cli, ["fit-many", str(tmp_path / "plant.csv"), "--inputs", "u1,u2,u3", "--outputs",
-                                  "y1,y2,y3", "--options", str(tmp_path / "kernel.json"), "--out", str(tmp_path / "f")])
-    assert refused.exit_code == 2 and "method='kernel'" in refused.output and not (tmp_path / "f").exists()
+    # fit-many reruns the model's options, the kernel method included, on a record
+    rerun = runner.invoke(cli, ["fit-many", str(tmp_path / "plant.csv"), "--inputs", "u1,u2,u3", "--outputs",
+                                "y1,y2,y3", "--options", str(tmp_path / "kernel.json"), "--out", str(tmp_path / "f")])
+    assert rerun.exit_code == 0, rerun.output
+    assert json.loads((tmp_path / "f" / "plant.json").read_text())["info"]["method"] == "kernel"
     # a fleet in Python: each record's kernel model and its fit on the held-out tail
     fleet = moli.identify_many({"a": data, "b": moli.example_data(N=300, seed=2)},
                                moli.IdentifyOptions(method="kernel", nmax=6))
