@@ -316,3 +316,15 @@ def test_the_discrete_subspace_start_maps_the_spread_circle_back_onto_the_lines(
     # eigenvalues of a 4 x 4 map of condition near 1: round-off
     np.testing.assert_allclose(np.sort_complex(np.linalg.eigvals(A_back)), np.sort_complex(poles), atol=1e-12)
     assert C_back.shape == (1, 4)
+
+
+def test_the_zero_and_nyquist_lines_leave_the_spread_of_the_others_alone():
+    # both are fixed points of every map of the family (z = 1 and z = -1); the Nyquist line as a
+    # column printed with six digits gives it (314.159, 8e-7 below pi / Ts) must not count either
+    Ts = 0.01
+    inside = np.logspace(0, 2, 300)
+    scales = []
+    for ends in ([], [0.0], [np.pi / Ts], [314.159], [0.0, np.pi / Ts]):
+        omega = np.sort(np.concatenate([inside, ends]))
+        scales.append(fit_domain(FrequencyData(omega, np.ones((omega.size, 1, 1)), unit="rad/s", Ts=Ts)).scale)
+    np.testing.assert_allclose(scales, scales[0], rtol=1e-12)       # the same lines: round-off only

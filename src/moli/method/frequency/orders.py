@@ -24,7 +24,7 @@ from .subspace import bilinear_points, input_and_feedthrough, observability_basi
 
 __all__ = ["FitDomain", "FrequencyStep", "fit_domain", "problem_on", "held_out_shares", "start_model", "fit_order",
            "modal_start", "judged_step", "subspace_basis", "weights_of", "band_wide_order", "thinned", "MAX_SHIFT_CONDITION",
-           "PATH_LINES"]
+           "NYQUIST_MARGIN", "PATH_LINES"]
 
 # Lines an order's refinement on the path works on at most (every k-th estimation line beyond
 # that): the path's models only rank the orders on the held-out lines, which are all used. A
@@ -34,6 +34,9 @@ __all__ = ["FitDomain", "FrequencyStep", "fit_domain", "problem_on", "held_out_s
 # 1 % (NEGLIGIBLE_SHARE). Each order then costs a bounded refinement and a few passes over the
 # lines (its B and D, its held-out error, its cost), not 20 Jacobians of every line.
 PATH_LINES = 4096
+# Lines this close to the Nyquist frequency (relative) count as on it (a frequency column printed
+# with six digits puts it within 1e-6).
+NYQUIST_MARGIN = 1e-6
 # A subspace model with a pole this close to the circle's image of infinity (z = -1 for a continuous
 # domain, 1 / a for a discrete one; the condition number of A_d + I or I - a A_d) has one at an
 # infinite s or z: no model in the fit domain has it, and the order is left out.
@@ -128,8 +131,11 @@ def _geometric_mean(values: np.ndarray) -> float:
 
 def fit_domain(data: FrequencyData) -> FitDomain:
     if data.Ts is not None:
-        # the Nyquist line (tan = inf) and the zero line (tan = 0) lie where the map leaves them
-        return FitDomain(False, _geometric_mean(np.tan(np.minimum(data.omega * data.Ts / 2, np.pi / 2))))
+        # the zero line (tan = 0) and the Nyquist line (tan = inf; 1e15 or so where pi / Ts was
+        # rounded, which would move the mean by a factor 1e15^(1 / lines)) are fixed points of every
+        # map of the family: they say nothing of where the others lie
+        angles = data.omega * data.Ts
+        return FitDomain(False, _geometric_mean(np.tan(angles[angles < np.pi * (1 - NYQUIST_MARGIN)] / 2)))
     return FitDomain(True, _geometric_mean(data.omega))
 
 
