@@ -90,7 +90,8 @@ def guarded_refinement(selection: PathSelection, search: StructureSearch, refine
     Each ridge refines the least-squares model, and the best on validation stays (the
     two-stage method keeps the free refinement: its error ``G (u - u_hat) + v`` is coloured,
     which biases the least squares); then the free refinement of each other list the greedy
-    step compared at this order, where it is better by more than a paired standard error.
+    step compared at this order, where it is better by more than a paired standard error
+    (unless ``options.refine_siblings`` is False).
     The generic list is kept where it fits validation within the order tolerance, then those
     of the orders below while they fit as well; last, the model's own optimum where
     validation clearly prefers it. After an interrupted search only the chosen list's own
@@ -100,7 +101,8 @@ def guarded_refinement(selection: PathSelection, search: StructureSearch, refine
     for candidate in refined(selection.step, refined.ridges if not two_stage else (0.0,)):
         if two_stage or candidate.mean_vaf > selection.step.mean_vaf:
             selection.keep(candidate)
-    for sibling in [] if interrupted else siblings(search, selection.path, selection.index):
+    compared = [] if interrupted or not options.refine_siblings else siblings(search, selection.path, selection.index)
+    for sibling in compared:
         for candidate in refined(sibling):
             if clearly_better(candidate, selection.step, validation, x0):
                 selection.keep(candidate)
