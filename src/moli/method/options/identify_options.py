@@ -114,8 +114,10 @@ class IdentifyOptions:
         keep one where validation prefers it, as ``refine`` says (docs/method.md §12).
     lower_orders : bool, default True
         With "guarded": also try the generic list of each order below the selected one, refined to its
-        optimum, while it fits validation within ``order_tolerance`` of the model so far
-        (docs/method.md §12, "The orders below").
+        optimum, while it fits validation within ``order_tolerance`` (docs/method.md §12, "The orders below").
+    screen_generic : bool, default False
+        With "guarded": judge the generic list at its early stop, and take only a kept one on to its
+        optimum, kept where it still fits as well (docs/method.md §12, "The generic list").
     polish_selected : bool, default True
         With "guarded": continue the selected model's free refinement to its optimum and keep that where
         it fits validation better by two paired standard errors (docs/method.md §12, "The selected model's optimum").
@@ -216,6 +218,7 @@ class IdentifyOptions:
     refine: str = "guarded"
     refine_siblings: bool = True
     lower_orders: bool = True
+    screen_generic: bool = False
     polish_selected: bool = True
     refine_iterations: int = 10
     refine_ridge: float | tuple[float, ...] = (0.0, 1.0)
@@ -266,6 +269,7 @@ class IdentifyOptions:
             "refine": check_choice("refine", refine, REFINE_CHOICES),
             "refine_siblings": check_flag("refine_siblings", self.refine_siblings),
             "lower_orders": check_flag("lower_orders", self.lower_orders),
+            "screen_generic": check_flag("screen_generic", self.screen_generic),
             "polish_selected": check_flag("polish_selected", self.polish_selected),
             "refine_iterations": check_integer("refine_iterations", self.refine_iterations, 1),
             "refine_ridge": check_ridges(self.refine_ridge),
@@ -307,20 +311,16 @@ class IdentifyOptions:
     def fast(cls, **changes: Any) -> "IdentifyOptions":
         """The default search made cheaper at a small, measured cost in fit.
 
-        :data:`~moli.method.options.choices.FAST_CHOICES`: screened greedy steps, a path stopped three orders
-        after its best validation fit, no sibling lists, five Levenberg-Marquardt steps per refinement, no
-        orders below and no optimum of the selected model (bands kept); 1.9-2.5 points above the best subspace
-        peer, 0.7-1.7 times the CPU of SIPPY's N4SID sweep (docs/accuracy.md, "The fast preset").
-
-        Parameters
-        ----------
-        **changes
-            Fields of :class:`IdentifyOptions` that replace the preset's values.
+        :data:`~moli.method.options.choices.FAST_CHOICES`: screened greedy steps, a path stopped three orders after
+        its best validation fit, no sibling lists, the generic list polished only where kept, five Levenberg-Marquardt
+        steps per refinement, no orders below and no optimum of the selected model (bands kept): 1.8-2.4 points above
+        the best subspace peer, 0.6-1.5 times SIPPY's N4SID sweep's CPU (docs/accuracy.md, "The fast preset").
 
         Returns
         -------
         IdentifyOptions
-            The default options with :data:`~moli.method.options.choices.FAST_CHOICES`, then ``changes``.
+            The default options with :data:`~moli.method.options.choices.FAST_CHOICES`, then ``changes``
+            (fields of :class:`IdentifyOptions` that replace the preset's values).
 
         Examples
         --------
