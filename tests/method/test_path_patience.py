@@ -1,5 +1,5 @@
 """The greedy path's early stop (``path_patience``): the path ends once that many orders in a row
-have not raised the best validation fit of its eligible steps."""
+have not raised the best validation fit of its eligible steps by more than the order tolerance."""
 
 import warnings
 from dataclasses import dataclass
@@ -35,6 +35,19 @@ def test_the_running_best_is_the_order_rules_best_eligible_step(steps):
     for k in range(1, len(steps)):
         best = best_eligible(steps[: k + 1], best)
         assert best == best_of(steps[: k + 1])
+
+
+@pytest.mark.parametrize("vafs, bests", [
+    # raises of 0.05 and 0.08 do not count; 60.12 does: 0.12 over the best held, though 0.04 over the step before
+    ([50, 60, 60.05, 60.08, 60.12, 59], [1, 1, 1, 4, 4]),
+    ([70, 70.1, 70.3, 70.35], [0, 2, 2]),
+])
+def test_a_raise_within_the_margin_leaves_the_best_where_it_is(vafs, bests):
+    steps = [Scored(v, True) for v in vafs]
+    best = 0
+    for k, expected in enumerate(bests, start=1):
+        best = best_eligible(steps[: k + 1], best, margin=0.1)
+        assert best == expected
 
 
 @pytest.fixture(scope="module")
@@ -77,5 +90,11 @@ def test_the_fast_preset_stops_its_path_and_the_default_does_not(records):
         default = moli.identify(*records, nmax=12, screen_lists=True, refine="none", noise_model=False)
     assert fast.options.path_patience == 3 and default.options.path_patience is None
     assert default.path[-1].order == 12
-    assert len(fast.path) - 1 - best_of(fast.path) == 3
+    # the best by the order tolerance (0.1 point): a step counts where it raises the best held by more
+    best = 0
+    for k, step in enumerate(fast.path):
+        if step.mean_vaf > fast.path[best].mean_vaf + fast.options.order_tolerance:
+            best = k
+    assert all(step.stable for step in fast.path)
+    assert len(fast.path) - 1 - best == 3
     assert len(fast.path) < len(default.path)

@@ -102,7 +102,7 @@ def identify(
     options = prepared.options
     search = StructureSearch.from_options(prepared.searched, prepared.scored, prepared.grid, options, prepared.radius)
     # a fixed order is reached whatever the fit on the way
-    path, interrupted = path_until_interrupted(search, nmax, progress,
+    path, interrupted = path_until_interrupted(search, nmax, progress, margin=options.order_tolerance,
                                                patience=options.path_patience if options.order is None else None)
     refined = prepared.refinements()
     # Ctrl-C after the path keeps the best complete model so far (moli.method.pipeline.interruption)

@@ -88,8 +88,8 @@ class IdentifyOptions:
     screen_lists : bool, default False
         The greedy step tunes only the candidate of lowest J at the raised list's filter (docs/method.md §5).
     path_patience : int, optional
-        Stop the greedy path once this many orders in a row have not raised the best mean validation VAF
-        of its stable models (docs/method.md §5, "The path's early stop"); None: up to ``nmax``.
+        Stop the greedy path once this many orders in a row have not raised the best mean validation VAF of
+        its stable models by more than ``order_tolerance`` (docs/method.md §5); None: up to ``nmax``.
     feedthrough : {True, False, "auto"}, default "auto"
         Direct feedthrough ``D``; "auto" keeps it per output where a nested F-test on
         the estimation data finds it significant (docs/method.md §8).

@@ -249,7 +249,7 @@ class StructureSearch:
 
 def greedy_path(
     search: StructureSearch, nmax: int, progress: Callable[[PathStep], None] | None = None, *,
-    patience: int | None = None,
+    patience: int | None = None, margin: float = 0.0,
 ) -> list[PathStep]:
     """The paper's greedy path: from ``(1, ..., 1)`` raise the index that lowers J most.
 
@@ -262,7 +262,11 @@ def greedy_path(
         Called with each step as it is added.
     patience : int, optional
         Stop once this many steps in a row have not raised the best validation VAF of the
-        path's eligible steps (:func:`best_eligible`); None runs the path to ``nmax``.
+        path's eligible steps by more than ``margin`` points (:func:`best_eligible`); None runs
+        the path to ``nmax``.
+    margin : float, default 0.0
+        The least raise that counts, in points of mean validation VAF (:func:`moli.identify`
+        gives its ``order_tolerance``: the order rule takes fits closer than that as equal).
 
     Returns
     -------
@@ -281,27 +285,28 @@ def greedy_path(
             break
         path.append(step)
         if patience is not None:
-            best = best_eligible(path, best)
+            best = best_eligible(path, best, margin)
         if progress:
             progress(path[-1])
     return path
 
 
-def best_eligible(path: Sequence[ScoredStep], best: int) -> int:
+def best_eligible(path: Sequence[ScoredStep], best: int, margin: float = 0.0) -> int:
     """Position of the best eligible step of ``path`` given ``best``, that of all but its last step.
 
     Eligible are the stable steps, or all of them where none is stable (as for the order rules,
-    :mod:`moli.method.selection.order_rules`); the best has the highest mean validation VAF,
-    the earlier one on a tie. A later step therefore replaces the best only by raising it.
+    :mod:`moli.method.selection.order_rules`); a later eligible step replaces the best only by
+    raising its mean validation VAF by more than ``margin`` points. With ``margin`` 0 that is
+    the order rules' best eligible step (the earlier one on a tie).
     """
     last, held = path[-1], path[best]
     if last.stable != held.stable:
         return len(path) - 1 if last.stable else best
-    return len(path) - 1 if last.mean_vaf > held.mean_vaf else best
+    return len(path) - 1 if last.mean_vaf > held.mean_vaf + margin else best
 
 
 def path_until_interrupted(search: StructureSearch, nmax: int, progress: Callable[[PathStep], None] | None = None,
-                           *, patience: int | None = None) -> tuple[list[PathStep], bool]:
+                           *, patience: int | None = None, margin: float = 0.0) -> tuple[list[PathStep], bool]:
     """:func:`greedy_path`, kept as far as it got when Ctrl-C stops it, and whether it did.
 
     Unstable candidates are expected while searching (the selected model is checked
@@ -318,7 +323,7 @@ def path_until_interrupted(search: StructureSearch, nmax: int, progress: Callabl
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         try:
-            greedy_path(search, nmax, record, patience=patience)
+            greedy_path(search, nmax, record, patience=patience, margin=margin)
         except KeyboardInterrupt:
             if not path:
                 raise
