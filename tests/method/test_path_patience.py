@@ -98,3 +98,10 @@ def test_the_fast_preset_stops_its_path_and_the_default_does_not(records):
     assert all(step.stable for step in fast.path)
     assert len(fast.path) - 1 - best == 3
     assert len(fast.path) < len(default.path)
+
+
+@pytest.mark.parametrize("option", [{"path_patience": 3}, {"refine_siblings": False}, {"screen_generic": True}])
+def test_the_fast_presets_search_options_are_refused_in_continuous_time(records, option):
+    # continuous time has its own search and no refinement: the option would be silently ignored
+    with pytest.raises(moli.OptionError, match=next(iter(option))):
+        moli.identify(*records, time="continuous", **option)
