@@ -26,6 +26,7 @@ BAD = {
     "seed": (1.5, -1),
     "output_filters": (1, None),
     "screen_lists": (1, None),
+    "path_patience": ("3", 0),
     "feedthrough": (1, "yes"),
     "max_radius": ([1.0], 1.5),
     "criterion_x0": (0, "zeros"),
@@ -34,7 +35,9 @@ BAD = {
     "refine_iterations": ("10", 0),
     "refine_ridge": ("1", ()),
     "center": ("yes", None),
+    "refine_siblings": ("no", None),
     "lower_orders": ("no", None),
+    "screen_generic": ("yes", None),
     "polish_selected": ("yes", None),
     "x0": (None, "random"),
     "noise_model": ("yes", None),
@@ -105,14 +108,16 @@ def test_presets_show_what_they_set():
         IdentifyOptions.preset("quick")
 
 
-def test_the_fast_preset_is_the_default_with_screened_steps_a_shorter_refinement_and_no_polishes():
+def test_the_fast_preset_is_the_default_with_screened_steps_a_shorter_path_and_refinement_and_no_polishes():
     fast = IdentifyOptions.preset("fast")
-    assert fast == IdentifyOptions.fast() == IdentifyOptions(screen_lists=True, refine_iterations=5,
+    assert fast == IdentifyOptions.fast() == IdentifyOptions(screen_lists=True, path_patience=3, refine_siblings=False,
+                                                             screen_generic=True, refine_iterations=5,
                                                              lower_orders=False, polish_selected=False)
-    # four choices differ from the default; the refinement stays guarded and the result
+    # seven choices differ from the default; the refinement stays guarded and the result
     # keeps its noise model (and so its bands and predictions)
     changed = {k for k, v in fast.to_dict().items() if IdentifyOptions().to_dict()[k] != v}
-    assert changed == {"screen_lists", "refine_iterations", "lower_orders", "polish_selected"}
+    assert changed == {"screen_lists", "path_patience", "refine_siblings", "screen_generic", "refine_iterations",
+                       "lower_orders", "polish_selected"}
     assert (fast.refine, fast.noise_model, fast.filter_grid) == ("guarded", True, "wide")
     # a change given beside the preset wins over the preset's own value
     assert IdentifyOptions.fast(refine_iterations=7, nmax=6).refine_iterations == 7

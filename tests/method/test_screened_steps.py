@@ -64,3 +64,26 @@ def test_screened_identification_recovers_a_noise_free_plant(seed):
     truth = moli.StateSpaceModel(A, B, C).frequency_response(w)
     # exact recovery up to round-off (4e-15 seen): 1e-8 leaves room for any BLAS
     assert np.max(np.abs(result.model.frequency_response(w) - truth)) <= 1e-8 * np.max(np.abs(truth))
+
+
+@pytest.mark.parametrize("refine_siblings", [True, False])
+def test_the_sibling_lists_are_tuned_only_where_they_are_refined(records, monkeypatch, refine_siblings):
+    tuned = []
+    original = StructureSearch._tune
+
+    def counting(self, lists):
+        tuned.extend(lists)
+        return original(self, lists)
+
+    monkeypatch.setattr(StructureSearch, "_tune", counting)
+    path = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        result = moli.identify(*records, nmax=7, preset="fast", refine_siblings=refine_siblings, noise_model=False,
+                               progress=lambda step: path.append(step.indices))
+    k = result.selected_index
+    assert k > 0, "the record must select an order above the first, or there are no siblings"
+    # the lists the greedy step screened at the selected order and did not take
+    siblings = set(raised(path[k - 1])) - {path[k]}
+    assert siblings
+    assert siblings <= set(tuned) if refine_siblings else not siblings & set(tuned)

@@ -101,7 +101,9 @@ def identify(
     prepared = prepare(estimation, validation, options)
     options = prepared.options
     search = StructureSearch.from_options(prepared.searched, prepared.scored, prepared.grid, options, prepared.radius)
-    path, interrupted = path_until_interrupted(search, nmax, progress)
+    # a fixed order is reached whatever the fit on the way
+    path, interrupted = path_until_interrupted(search, nmax, progress, margin=options.order_tolerance,
+                                               patience=options.path_patience if options.order is None else None)
     refined = prepared.refinements()
     # Ctrl-C after the path keeps the best complete model so far (moli.method.pipeline.interruption)
     phases = Phases(post_path_phases(options, long_record=prepared.long_record, direct=prepared.loop == "direct"),

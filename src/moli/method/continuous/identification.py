@@ -36,7 +36,7 @@ NEGLIGIBLE_VAF = 0.01
 DISCRETE_ONLY = ("filter_grid", "iterations", "seed", "output_filters", "feedthrough", "max_radius",
                  "criterion_x0", "trend_degree", "refine", "lower_orders", "polish_selected", "refine_iterations",
                  "refine_ridge", "x0", "noise_model", "regularization", "delays", "search_samples", "reference",
-                 "closed_loop")
+                 "closed_loop", "path_patience", "refine_siblings", "screen_generic")
 
 
 @dataclass

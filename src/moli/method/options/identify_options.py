@@ -86,8 +86,10 @@ class IdentifyOptions:
     output_filters : bool, default True
         Re-tune each output's filter cutoff of every path model on J (docs/method.md §11).
     screen_lists : bool, default False
-        The greedy step tunes only the candidate of lowest J at the filter of the list it
-        raises (docs/method.md §5, "Screened steps").
+        The greedy step tunes only the candidate of lowest J at the raised list's filter (docs/method.md §5).
+    path_patience : int, optional
+        Stop the greedy path once this many orders in a row have not raised the best mean validation VAF of
+        its stable models by more than ``order_tolerance`` (docs/method.md §5); None: up to ``nmax``.
     feedthrough : {True, False, "auto"}, default "auto"
         Direct feedthrough ``D``; "auto" keeps it per output where a nested F-test on
         the estimation data finds it significant (docs/method.md §8).
@@ -100,22 +102,25 @@ class IdentifyOptions:
         J ignores the polynomial trend of this degree in each output's simulation
         error, 0 to 5 (docs/method.md §10).
     refine : {"none", "selected", "path", "guarded"}, default "guarded"
-        Output-error refinement of the selected model, or of every path model before
-        the order rule (docs/method.md §12); "guarded": the selected model's refinement,
-        kept only where it raises the mean validation VAF; another list the greedy step
-        compared at that order, where its refinement is better by a paired standard error;
-        the order's generic list refined to its optimum, where its validation fit is
-        within ``order_tolerance`` of the model so far; then the generic list of each order
-        below, one order at a time, while it fits as well (``lower_orders``; not below a
-        fixed ``order``). True and False mean "selected" and "none".
+        Output-error refinement of the selected model, or of every path model before the order rule
+        (docs/method.md §12); "guarded": the selected model's refinement, kept only where it raises
+        the mean validation VAF; another list the greedy step compared at that order, where its
+        refinement is better by a paired standard error (``refine_siblings``); the order's generic
+        list refined to its optimum, where its validation fit is within ``order_tolerance`` of the
+        model so far; then the generic list of each order below, one order at a time, while it fits
+        as well (``lower_orders``; not below a fixed ``order``). True and False mean "selected" and "none".
+    refine_siblings : bool, default True
+        With "guarded": refine the other lists the greedy step compared at the selected order and
+        keep one where validation prefers it, as ``refine`` says (docs/method.md §12).
     lower_orders : bool, default True
-        With "guarded": also try the generic list of each order below the selected one,
-        refined to its optimum, while its validation fit is within ``order_tolerance`` of
-        the model so far (docs/method.md §12, "The orders below").
+        With "guarded": also try the generic list of each order below the selected one, refined to its
+        optimum, while it fits validation within ``order_tolerance`` (docs/method.md §12, "The orders below").
+    screen_generic : bool, default False
+        With "guarded": judge the generic list at its early stop, and take only a kept one on to its
+        optimum, kept where it still fits as well (docs/method.md §12, "The generic list").
     polish_selected : bool, default True
-        With "guarded": continue the selected model's free refinement to its optimum and keep
-        that where it fits validation better by more than two paired standard errors
-        (docs/method.md §12, "The selected model's optimum").
+        With "guarded": continue the selected model's free refinement to its optimum and keep that where
+        it fits validation better by two paired standard errors (docs/method.md §12, "The selected model's optimum").
     refine_iterations : int, default 10
         Most Levenberg-Marquardt steps of each refinement compared on validation (the
         generic list's then runs on to its optimum, docs/method.md §12).
@@ -205,12 +210,15 @@ class IdentifyOptions:
     seed: int = 0
     output_filters: bool = True
     screen_lists: bool = False
+    path_patience: int | None = None
     feedthrough: bool | str = "auto"
     max_radius: float | str | None = 1.0
     criterion_x0: str = "zero"
     trend_degree: int = 2
     refine: str = "guarded"
+    refine_siblings: bool = True
     lower_orders: bool = True
+    screen_generic: bool = False
     polish_selected: bool = True
     refine_iterations: int = 10
     refine_ridge: float | tuple[float, ...] = (0.0, 1.0)
@@ -252,12 +260,16 @@ class IdentifyOptions:
             "seed": check_integer("seed", self.seed, 0),
             "output_filters": check_flag("output_filters", self.output_filters),
             "screen_lists": check_flag("screen_lists", self.screen_lists),
+            "path_patience": None if self.path_patience is None
+            else check_integer("path_patience", self.path_patience, 1),
             "feedthrough": check_choice("feedthrough", self.feedthrough, FEEDTHROUGH_CHOICES),
             "max_radius": radius,
             "criterion_x0": check_choice("criterion_x0", self.criterion_x0, X0_CHOICES),
             "trend_degree": check_integer("trend_degree", self.trend_degree, 0, MAX_TREND_DEGREE),
             "refine": check_choice("refine", refine, REFINE_CHOICES),
+            "refine_siblings": check_flag("refine_siblings", self.refine_siblings),
             "lower_orders": check_flag("lower_orders", self.lower_orders),
+            "screen_generic": check_flag("screen_generic", self.screen_generic),
             "polish_selected": check_flag("polish_selected", self.polish_selected),
             "refine_iterations": check_integer("refine_iterations", self.refine_iterations, 1),
             "refine_ridge": check_ridges(self.refine_ridge),
@@ -299,28 +311,16 @@ class IdentifyOptions:
     def fast(cls, **changes: Any) -> "IdentifyOptions":
         """The default search made cheaper at a small, measured cost in fit.
 
-        Each greedy step tunes the filter of one list, the candidate of lowest J at the filter
-        of the list it raises (``screen_lists=True``); each refinement of the guarded
-        refinement stops after five Levenberg-Marquardt steps instead of ten (the generic list
-        of the selected order still runs on to its optimum), the orders below the selected
-        one are not tried (``lower_orders=False``) and the selected model keeps its early
-        stop (``polish_selected=False``); every other choice is the default's, the noise
-        model and its bands included. Over the 119 cases of the generalization benchmark its
-        mean validation VAF is 0.35, 0.64 and 0.12 points below the default's on seeds 0, 1
-        and 2, and 1.9, 2.3 and 2.5 points above the best subspace peer's, at 1.4-2.2 times
-        the CPU of SIPPY's N4SID order sweep on four DaISy records (docs/accuracy.md, "The
-        fast preset"; docs/performance.md).
-
-        Parameters
-        ----------
-        **changes
-            Fields of :class:`IdentifyOptions` that replace the preset's values.
+        :data:`~moli.method.options.choices.FAST_CHOICES`: screened greedy steps, a path stopped three orders after
+        its best validation fit, no sibling lists, the generic list polished only where kept, five Levenberg-Marquardt
+        steps per refinement, no orders below and no optimum of the selected model (bands kept): 1.8-2.4 points above
+        the best subspace peer, 0.6-1.5 times SIPPY's N4SID sweep's CPU (docs/accuracy.md, "The fast preset").
 
         Returns
         -------
         IdentifyOptions
-            The default options with ``screen_lists=True``, ``refine_iterations=5``,
-            ``lower_orders=False`` and ``polish_selected=False``, then ``changes``.
+            The default options with :data:`~moli.method.options.choices.FAST_CHOICES`, then ``changes``
+            (fields of :class:`IdentifyOptions` that replace the preset's values).
 
         Examples
         --------

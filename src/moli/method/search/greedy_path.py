@@ -21,7 +21,8 @@ from ..tuning.criterion import FilterScorer, score_lists
 from ..tuning.barycenter import tune_filters
 from ...validation.comparison import compare
 
-__all__ = ["ScoredStep", "PathStep", "StructureSearch", "greedy_path", "path_until_interrupted", "next_step", "exhaustive"]
+__all__ = ["ScoredStep", "PathStep", "StructureSearch", "greedy_path", "best_eligible", "path_until_interrupted",
+           "next_step", "exhaustive"]
 
 
 class ScoredStep:
@@ -247,7 +248,8 @@ class StructureSearch:
 
 
 def greedy_path(
-    search: StructureSearch, nmax: int, progress: Callable[[PathStep], None] | None = None
+    search: StructureSearch, nmax: int, progress: Callable[[PathStep], None] | None = None, *,
+    patience: int | None = None, margin: float = 0.0,
 ) -> list[PathStep]:
     """The paper's greedy path: from ``(1, ..., 1)`` raise the index that lowers J most.
 
@@ -258,29 +260,53 @@ def greedy_path(
         Largest McMillan degree to reach.
     progress : callable, optional
         Called with each step as it is added.
+    patience : int, optional
+        Stop once this many steps in a row have not raised the best validation VAF of the
+        path's eligible steps by more than ``margin`` points (:func:`best_eligible`); None runs
+        the path to ``nmax``.
+    margin : float, default 0.0
+        The least raise that counts, in points of mean validation VAF (:func:`moli.identify`
+        gives its ``order_tolerance``: the order rule takes fits closer than that as equal).
 
     Returns
     -------
     list of PathStep
         One step per order ``p, p+1, ...``; shorter than ``nmax - p + 1`` when the
-        record has too few samples for every larger list.
+        record has too few samples for every larger list, or when ``patience`` stopped it.
     """
     current = (1,) * search.estimation.p
     path = [search.fit(current)]
+    best = 0
     if progress:
         progress(path[-1])
-    while path[-1].order < nmax:
+    while path[-1].order < nmax and (patience is None or len(path) - 1 - best < patience):
         step = next_step(search, path[-1])
         if step is None:
             break
         path.append(step)
+        if patience is not None:
+            best = best_eligible(path, best, margin)
         if progress:
             progress(path[-1])
     return path
 
 
-def path_until_interrupted(search: StructureSearch, nmax: int,
-                           progress: Callable[[PathStep], None] | None = None) -> tuple[list[PathStep], bool]:
+def best_eligible(path: Sequence[ScoredStep], best: int, margin: float = 0.0) -> int:
+    """Position of the best eligible step of ``path`` given ``best``, that of all but its last step.
+
+    Eligible are the stable steps, or all of them where none is stable (as for the order rules,
+    :mod:`moli.method.selection.order_rules`); a later eligible step replaces the best only by
+    raising its mean validation VAF by more than ``margin`` points. With ``margin`` 0 that is
+    the order rules' best eligible step (the earlier one on a tie).
+    """
+    last, held = path[-1], path[best]
+    if last.stable != held.stable:
+        return len(path) - 1 if last.stable else best
+    return len(path) - 1 if last.mean_vaf > held.mean_vaf + margin else best
+
+
+def path_until_interrupted(search: StructureSearch, nmax: int, progress: Callable[[PathStep], None] | None = None,
+                           *, patience: int | None = None, margin: float = 0.0) -> tuple[list[PathStep], bool]:
     """:func:`greedy_path`, kept as far as it got when Ctrl-C stops it, and whether it did.
 
     Unstable candidates are expected while searching (the selected model is checked
@@ -297,7 +323,7 @@ def path_until_interrupted(search: StructureSearch, nmax: int,
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         try:
-            greedy_path(search, nmax, record)
+            greedy_path(search, nmax, record, patience=patience, margin=margin)
         except KeyboardInterrupt:
             if not path:
                 raise

@@ -51,7 +51,7 @@ def siblings(search: StructureSearch, path: list[PathStep], selected: int) -> li
 
 
 def generic_candidate(search: StructureSearch, step: PathStep, refined: RefinedSteps,
-                      own_list: bool = False) -> PathStep | None:
+                      own_list: bool = False, *, polish: bool = True) -> PathStep | None:
     """The generic list of ``step``'s order, refined freely to its optimum and validated; None
     where it cannot be fitted or is unstable, or where it is ``step``'s own list and not
     ``own_list`` (``step``'s refinement is then the one compared already).
@@ -78,6 +78,9 @@ def generic_candidate(search: StructureSearch, step: PathStep, refined: RefinedS
         pole bound.
     own_list : bool, default False
         Where ``step``'s list is the generic one: refine ``step`` itself to its optimum.
+    polish : bool, default True
+        False stops the free refinement where that of every list compared stops: the caller
+        takes the candidate on to its optimum only if it keeps it (``screen_generic``).
 
     Returns
     -------
@@ -94,7 +97,8 @@ def generic_candidate(search: StructureSearch, step: PathStep, refined: RefinedS
             candidate = refined.free(step if own else search.fit(generic))
         except (MoliError, np.linalg.LinAlgError):
             return None
-        candidate = refined.polished(candidate)
+        if polish:
+            candidate = refined.polished(candidate)
     return candidate if candidate.stable else None
 
 

@@ -90,8 +90,10 @@ def guarded_refinement(selection: PathSelection, search: StructureSearch, refine
     Each ridge refines the least-squares model, and the best on validation stays (the
     two-stage method keeps the free refinement: its error ``G (u - u_hat) + v`` is coloured,
     which biases the least squares); then the free refinement of each other list the greedy
-    step compared at this order, where it is better by more than a paired standard error.
-    The generic list is kept where it fits validation within the order tolerance, then those
+    step compared at this order, where it is better by more than a paired standard error
+    (unless ``options.refine_siblings`` is False).
+    The generic list is kept where it fits validation within the order tolerance (with
+    ``options.screen_generic`` judged at its early stop, then taken to its optimum), then those
     of the orders below while they fit as well; last, the model's own optimum where
     validation clearly prefers it. After an interrupted search only the chosen list's own
     refinements are tried.
@@ -100,12 +102,19 @@ def guarded_refinement(selection: PathSelection, search: StructureSearch, refine
     for candidate in refined(selection.step, refined.ridges if not two_stage else (0.0,)):
         if two_stage or candidate.mean_vaf > selection.step.mean_vaf:
             selection.keep(candidate)
-    for sibling in [] if interrupted else siblings(search, selection.path, selection.index):
+    compared = [] if interrupted or not options.refine_siblings else siblings(search, selection.path, selection.index)
+    for sibling in compared:
         for candidate in refined(sibling):
             if clearly_better(candidate, selection.step, validation, x0):
                 selection.keep(candidate)
-    candidate = None if interrupted else generic_candidate(search, selection.step, refined)
-    if candidate is not None and candidate.mean_vaf >= selection.step.mean_vaf - options.order_tolerance:
+    line = selection.step.mean_vaf - options.order_tolerance
+    candidate = None if interrupted else generic_candidate(search, selection.step, refined,
+                                                           polish=not options.screen_generic)
+    if options.screen_generic and candidate is not None and candidate.mean_vaf >= line:
+        # judged at its early stop; only the one kept goes on to its optimum, where its bands hold
+        candidate = refined.polished(candidate)
+        candidate = candidate if candidate.stable else None
+    if candidate is not None and candidate.mean_vaf >= line:
         selection.keep(candidate)
     if not interrupted and options.order is None and options.lower_orders:
         selection.index = generic_orders_below(search, selection.path, selection.index, refined,
