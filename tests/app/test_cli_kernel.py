@@ -114,6 +114,9 @@ BAD = [
     (["fit", "still.csv", *IO, "--method", "kernel"], "input u3 never changes"),
     (["fit", "good.csv", "--frequency", "--method", "kernel"], "--method does not apply to --frequency"),
     (["fit", "good.csv", "--frequency", "--options", "kernel.json"], "asks for method='kernel'"),
+    (["fit", "good.csv", *IO, "--kernel", "DC"], "kernel must be 'TC' unless method='kernel'"),
+    (["fit", "good.csv", "--frequency", "--kernel", "SS"], "--kernel does not apply to --frequency"),
+    (["fit", "good.csv", *IO, "--method", "kernel", "--kernel", "gauss"], "'--kernel': 'gauss' is not one of"),
     (["fit-many", *IO, "--out", "many", "good.csv", "--method", "kernel", "--preset", "fast"],
      "method='kernel' does not read"),
 ]
@@ -139,3 +142,17 @@ def test_fit_many_runs_the_kernel_method_per_record_and_lists_the_one_it_cannot_
     one = json.loads((folder / "one.json").read_text())
     assert saved["A"] == one["A"] and saved["C"] == one["C"]
     assert "input u3 never changes" in (folder / "many" / "summary.csv").read_text()
+
+
+def test_the_kernel_flag_names_the_prior_of_the_fit_and_of_the_fleet(folder):
+    assert run(folder, "fit", "good.csv", *IO, "--method", "kernel", "--kernel", "SS", "--nmax", "4",
+               "--out", "ss.json").exit_code == 0
+    saved = json.loads((folder / "ss.json").read_text())
+    assert saved["info"]["options"]["kernel"] == saved["info"]["kernel"] == "SS"
+    estimation, validation = moli.read_data(folder / "good.csv", ["u1", "u2", "u3"], ["y1", "y2", "y3"]).split(0.7)
+    direct = moli.identify_kernel(estimation, validation, kernel="SS", nmax=4).model
+    # the same computation on the same split, up to the JSON file's 17 significant digits
+    np.testing.assert_allclose(moli.load_model(folder / "ss.json").A, direct.A, rtol=1e-12, atol=1e-14)
+    assert run(folder, "fit-many", *IO, "--out", "many", "good.csv", "--method", "kernel", "--kernel", "SS",
+               "--nmax", "4", "--workers", "1").exit_code == 0
+    assert json.loads((folder / "many" / "good.json").read_text())["A"] == saved["A"]

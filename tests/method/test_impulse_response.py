@@ -209,6 +209,10 @@ def test_identify_hands_the_kernel_method_over_and_refuses_what_it_would_ignore(
     # the same split (the last 30 % held out) and the same computation: the same model to the bit
     np.testing.assert_array_equal(through_identify.model.A, direct.model.A)
     assert through_identify.validation_source == direct.validation_source
+    # the prior named in the options reaches the method
+    stable_spline = moli.identify(data, method="kernel", kernel="SS", nmax=6)
+    np.testing.assert_array_equal(stable_spline.model.A, moli.identify_kernel(data, kernel="SS", nmax=6).model.A)
+    assert stable_spline.impulse.kernel == "SS" and stable_spline.model.info["options"]["kernel"] == "SS"
     with pytest.raises(moli.OptionError, match="does not read seed, refine"):
         moli.identify(data, method="kernel", refine="none", seed=3)
     with pytest.raises(moli.OptionError, match="sampled models"):

@@ -50,6 +50,7 @@ BAD = {
     "closed_loop": (True, "indirect"),
     "method": ("ridge", None, 1),
     "frequency_start": (1, "moli"),
+    "kernel": (1, "Gaussian"),
 }
 
 
@@ -62,6 +63,12 @@ def test_every_field_has_bad_values_tested():
 def test_a_bad_field_is_named_in_the_error(field, which):
     with pytest.raises(OptionError, match=rf"IdentifyOptions\.{field} must be"):
         IdentifyOptions(**{field: BAD[field][which]})
+
+
+def test_a_kernel_prior_other_than_tc_is_for_the_kernel_method_only():
+    assert IdentifyOptions(method="kernel", kernel="SS").kernel == "SS"
+    with pytest.raises(OptionError, match=r"IdentifyOptions\.kernel must be 'TC' unless method='kernel'"):
+        IdentifyOptions(kernel="DC")
 
 
 def test_accepted_spellings_are_normalized():

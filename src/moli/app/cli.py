@@ -27,7 +27,7 @@ from ..errors import DataError, MoliError, OptionError
 from ..method.identification import IdentificationResult
 from ..method.closed_loop.reference_projection import without_reference
 from ..method.options import PRESETS, IdentifyOptions
-from ..method.options.choices import METHODS
+from ..method.options.choices import KERNELS, METHODS
 from ..method.search.greedy_path import PathStep, StructureSearch, exhaustive
 from ..models.storage import load_model
 from ..systems.plant import example_data
@@ -220,7 +220,9 @@ def demo(out_dir: Path, nmax: int, all_lists: bool, force: bool) -> None:
                    "(needs --reference) or by the direct prediction-error method [default: two-stage "
                    "with --reference, else direct where an input is a controller's output, else open].")
 @click.option("--method", type=click.Choice(METHODS), help="The MOLI path, or the realization of a regularized "
-              "(TC kernel) impulse response, order chosen on validation (docs/regularization.md) [default: moli].")
+              "impulse response, order chosen on validation (docs/regularization.md) [default: moli].")
+@click.option("--kernel", type=click.Choice(KERNELS), help="With --method kernel: the prior on each impulse "
+              "response (docs/regularization.md) [default: TC].")
 @click.option("--frequency", is_flag=True, help="DATA is a measured frequency response (a CSV of "
               "'<output>/<input> <part>' columns, docs/frequency.md): fit a model to it.")
 @click.option("--averages", type=click.IntRange(min=1), help="With --frequency: the spectra averaged per line, "
@@ -232,7 +234,8 @@ def fit(*, data_files: tuple[Path, ...], inputs: str | None, outputs: str | None
         order: int | None, fraction: float, seed: int | None, preset: str | None, x0: str | None,
         outliers: str, model_path: Path | None, report_dir: Path | None, all_lists: bool,
         continuous: bool, input_hold: str | None, reference: str | None, closed_loop: str | None,
-        method: str | None, frequency: bool, averages: int | None, force: bool, **reading: Any) -> None:
+        method: str | None, kernel: str | None, frequency: bool, averages: int | None, force: bool,
+        **reading: Any) -> None:
     """Identify a model from a data file, several runs of one plant, or a DaISy set.
 
     DATA is a text table (.csv .tsv .txt), an Excel workbook (.xlsx), Parquet, .npz or
@@ -257,7 +260,7 @@ def fit(*, data_files: tuple[Path, ...], inputs: str | None, outputs: str | None
     options = options_from_flags(options_file, preset, nmax=nmax, order=order, seed=seed, x0=x0,
                                  time="continuous" if continuous else None, input_hold=input_hold,
                                  reference=names(reference), closed_loop=closed_loop, method=method,
-                                 runs_kernel=True)
+                                 kernel=kernel, runs_kernel=True)
     stems = [daisy] if daisy is not None else [path.stem for path in data_files]
     read = [*data_files, *([options_file] if options_file is not None else [])]
     model_path, report_dir = fit_outputs(model_path, report_dir, run_folder("fit", stems), force, read)

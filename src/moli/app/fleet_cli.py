@@ -23,7 +23,7 @@ from ..data.files import read_data
 from ..errors import DataError, MoliError, OptionError
 from ..fleets.records import identify_many
 from ..method.options import PRESETS, IdentifyOptions
-from ..method.options.choices import METHODS
+from ..method.options.choices import KERNELS, METHODS
 from ..method.pipeline.routes import check_kernel_options
 from ..models.storage import load_model
 from ..validation.comparison import X0_CHOICES, compare
@@ -115,6 +115,8 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
     @click.option("--seed", type=int, help="Seed of the randomized filter search [default: 0].")
     @click.option("--method", type=click.Choice(METHODS), help="The MOLI path, or the kernel method for short "
                   "records, as for moli fit (docs/regularization.md) [default: moli].")
+    @click.option("--kernel", type=click.Choice(KERNELS), help="With --method kernel: the prior on each impulse "
+                  "response [default: TC].")
     @click.option("--out", "out_dir", default="models", show_default=True, type=click.Path(path_type=Path),
                   help="Folder for NAME.json per record and summary.csv / summary.html.")
     @click.option("--force", is_flag=True, help="Overwrite model files and a summary already in --out.")
@@ -124,8 +126,8 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
                   help="End a record that runs longer (its worker process with it) and list it as timed out.")
     def fit_many(*, patterns: tuple[str, ...], inputs: str, outputs: str, ts: float | None,
                  workers: int | None, scheduler: str | None, options_file: Path | None,
-                 preset: str | None, nmax: int | None, seed: int | None, method: str | None, out_dir: Path,
-                 force: bool, resume: bool, timeout: float | None) -> None:
+                 preset: str | None, nmax: int | None, seed: int | None, method: str | None, kernel: str | None,
+                 out_dir: Path, force: bool, resume: bool, timeout: float | None) -> None:
         """Identify every record matched by PATTERN (quote it: 'plant/*.csv').
 
         Each record is named by its file's stem and identified on its own, its last
@@ -140,7 +142,8 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
         if timeout is not None and scheduler is not None:
             raise OptionError("--timeout ends the worker process of a record that runs too long: it needs "
                               "local processes (--workers), not --scheduler")
-        options = options_from_flags(options_file, preset, nmax=nmax, seed=seed, method=method, runs_kernel=True)
+        options = options_from_flags(options_file, preset, nmax=nmax, seed=seed, method=method, kernel=kernel,
+                                     runs_kernel=True)
         check_kernel_options(options)       # before any record is read, as moli fit refuses them
         files = match_files(patterns)
         sources = _by_stem(files)

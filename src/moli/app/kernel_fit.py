@@ -1,5 +1,5 @@
-"""``moli fit --method kernel``: the state-space model realizing a record's regularized (TC)
-impulse response, its order chosen on the held-out tail (docs/regularization.md), its model
+"""``moli fit --method kernel``: the state-space model realizing a record's regularized (TC,
+or ``--kernel``'s prior) impulse response, its order chosen on the held-out tail (docs/regularization.md), its model
 file and report."""
 
 from __future__ import annotations

@@ -16,10 +16,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..options.choices import KERNELS
+
 __all__ = ["KERNELS", "hyperparameter_count", "named_hyperparameters", "kernel_matrix", "square_root",
            "kernel_root", "decay_of"]
 
-KERNELS = ("TC", "DC", "SS", "none")
 # Unconstrained coordinates are kept within these bounds: lambda in (4.5e-5, 1 - 8e-7),
 # rho in (-0.9999, 0.9999); beyond them the kernels are numerically the limit cases.
 LOGIT_BOUND = (-10.0, 14.0)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 __all__ = ["REFINE_CHOICES", "EVAPORATOR_CHOICES", "ORDER_RULES", "FAST_CHOICES", "PRESETS", "TIMES", "INPUT_HOLDS",
-           "CLOSED_LOOP_METHODS", "METHODS", "MIN_SEARCH_SAMPLES", "FREQUENCY_STARTS"]
+           "CLOSED_LOOP_METHODS", "METHODS", "KERNELS", "MIN_SEARCH_SAMPLES", "FREQUENCY_STARTS"]
 
 REFINE_CHOICES = ("none", "selected", "path", "guarded")
 # What the earlier presets share and the default no longer does (chosen on the
@@ -27,6 +27,9 @@ MIN_SEARCH_SAMPLES = 500
 # What estimates the model: the MOLI path, or the realization of a regularized impulse response
 # (docs/regularization.md).
 METHODS = ("moli", "kernel")
+# The priors of the kernel method's impulse responses (moli.method.kernel.kernels): tuned-correlated,
+# diagonal-correlated, stable spline, or none (plain least squares; docs/regularization.md).
+KERNELS = ("TC", "DC", "SS", "none")
 # The starts of each order's model from frequency data: the subspace method alone, or it and the
 # MOLI start on the frequency grid, the better on the held-out lines kept (docs/frequency.md §2b).
 FREQUENCY_STARTS = ("subspace", "both")

@@ -13,19 +13,8 @@ from dataclasses import asdict, dataclass, fields, replace
 from typing import Any, Mapping
 
 from ...errors import OptionError
-from ...validation.comparison import X0_CHOICES
-from .choices import (
-    CLOSED_LOOP_METHODS, EVAPORATOR_CHOICES, FAST_CHOICES, FREQUENCY_STARTS, INPUT_HOLDS, METHODS, MIN_SEARCH_SAMPLES,
-    ORDER_RULES, PRESETS, REFINE_CHOICES, TIMES,
-)
-from .value_checks import (
-    check_choice, check_delays, check_flag, check_names, check_integer, check_number, check_omega_pairs, check_ridges,
-    option_error,
-)
-from ..least_squares.shared_factors import FEEDTHROUGH_CHOICES
-from ..least_squares.regularization import REGULARIZATIONS
-from ..tuning.criterion import MAX_TREND_DEGREE
-from ..tuning.barycenter import GRIDS, TUNING_METHODS
+from .canonical import canonical_fields
+from .choices import EVAPORATOR_CHOICES, FAST_CHOICES, PRESETS
 
 __all__ = ["IdentifyOptions"]
 
@@ -177,9 +166,12 @@ class IdentifyOptions:
         ``feedthrough`` is not True; else "open", which warns when the record looks
         closed-loop. "open" keeps the open-loop fit whatever the check finds.
     method : {"moli", "kernel"}, default "moli"
-        What estimates the model: the MOLI path, or the realization of a regularized (TC)
+        What estimates the model: the MOLI path, or the realization of a regularized
         impulse response with its order chosen on validation (:func:`moli.identify_kernel`,
-        docs/regularization.md), which reads ``nmax``, ``x0``, ``center`` and ``feedthrough``.
+        docs/regularization.md), which reads ``nmax``, ``x0``, ``center``, ``feedthrough`` and ``kernel``.
+    kernel : {"TC", "DC", "SS", "none"}, default "TC"
+        The prior on each impulse response of ``method="kernel"`` (docs/regularization.md); any other
+        than "TC" with the MOLI path is an error.
     frequency_start : {"subspace", "both"}, default "subspace"
         Frequency data only: each order's model grows from the frequency-domain subspace
         start, or from it and the MOLI start on the frequency grid, the better refined
@@ -234,66 +226,10 @@ class IdentifyOptions:
     closed_loop: str | None = None
     method: str = "moli"
     frequency_start: str = "subspace"
+    kernel: str = "TC"
 
     def __post_init__(self) -> None:
-        radius = self.max_radius
-        if radius == "none" or radius is None:
-            radius = None
-        elif radius != "auto":
-            radius = check_number("max_radius", radius, "'auto', None or a number in (0, 1]",
-                             lambda r: 0 < r <= 1)
-        refine = {True: "selected", False: "none"}.get(self.refine, self.refine) \
-            if isinstance(self.refine, bool) else self.refine
-        checked = {
-            "nmax": None if self.nmax is None else check_integer("nmax", self.nmax, 1),
-            "order_rule": None if self.order_rule is None else check_choice("order_rule", self.order_rule, ORDER_RULES),
-            "order": None if self.order is None else check_integer("order", self.order, 1),
-            "order_errors": check_number("order_errors", self.order_errors,
-                                    "a number >= 0 (paired standard errors)", lambda z: z >= 0),
-            "order_tolerance": check_number("order_tolerance", self.order_tolerance,
-                                       "a number >= 0 (points of VAF)", lambda t: t >= 0),
-            "omega": check_omega_pairs(self.omega),
-            "filter_grid": check_choice("filter_grid", self.filter_grid, tuple(GRIDS)),
-            "tuning": check_choice("tuning", self.tuning, TUNING_METHODS),
-            "iterations": check_integer("iterations", self.iterations, 1),
-            "s": check_number("s", self.s, "a number > 1", lambda s: s > 1),
-            "seed": check_integer("seed", self.seed, 0),
-            "output_filters": check_flag("output_filters", self.output_filters),
-            "screen_lists": check_flag("screen_lists", self.screen_lists),
-            "path_patience": None if self.path_patience is None
-            else check_integer("path_patience", self.path_patience, 1),
-            "feedthrough": check_choice("feedthrough", self.feedthrough, FEEDTHROUGH_CHOICES),
-            "max_radius": radius,
-            "criterion_x0": check_choice("criterion_x0", self.criterion_x0, X0_CHOICES),
-            "trend_degree": check_integer("trend_degree", self.trend_degree, 0, MAX_TREND_DEGREE),
-            "refine": check_choice("refine", refine, REFINE_CHOICES),
-            "refine_siblings": check_flag("refine_siblings", self.refine_siblings),
-            "lower_orders": check_flag("lower_orders", self.lower_orders),
-            "screen_generic": check_flag("screen_generic", self.screen_generic),
-            "polish_selected": check_flag("polish_selected", self.polish_selected),
-            "refine_iterations": check_integer("refine_iterations", self.refine_iterations, 1),
-            "refine_ridge": check_ridges(self.refine_ridge),
-            "center": check_flag("center", self.center),
-            "x0": check_choice("x0", self.x0, X0_CHOICES),
-            "noise_model": check_flag("noise_model", self.noise_model),
-            "regularization": check_choice("regularization", self.regularization, REGULARIZATIONS),
-            "delays": check_delays(self.delays),
-            "search_samples": None if self.search_samples is None else check_integer(
-                "search_samples", self.search_samples, MIN_SEARCH_SAMPLES),
-            "time": check_choice("time", self.time, TIMES),
-            "input_hold": check_choice("input_hold", self.input_hold, INPUT_HOLDS),
-            "reference": check_names("reference", self.reference),
-            "closed_loop": None if self.closed_loop is None else check_choice(
-                "closed_loop", self.closed_loop, CLOSED_LOOP_METHODS),
-            "method": check_choice("method", self.method, METHODS),
-            "frequency_start": check_choice("frequency_start", self.frequency_start, FREQUENCY_STARTS),
-        }
-        if checked["closed_loop"] == "two-stage" and checked["reference"] is None:
-            raise option_error("closed_loop", "'open' or 'direct' without a reference (the two-stage method "
-                               "needs reference=[names of the reference channels])", self.closed_loop)
-        if checked["order"] is not None and checked["nmax"] is not None and checked["order"] > checked["nmax"]:
-            raise option_error("order", f"at most nmax = {checked['nmax']} (the end of the path)", self.order)
-        for name, value in checked.items():
+        for name, value in canonical_fields(self).items():
             object.__setattr__(self, name, value)
 
     def path_end(self, p: int) -> int:

@@ -19,7 +19,7 @@ HandedOver = ContinuousResult | KernelResult
 
 # The options the kernel method reads; any other changed from its default is refused (it would
 # be silently ignored).
-KERNEL_READS = frozenset({"nmax", "x0", "center", "feedthrough", "method"})
+KERNEL_READS = frozenset({"nmax", "x0", "center", "feedthrough", "method", "kernel"})
 
 
 def check_kernel_options(options: IdentifyOptions) -> None:
@@ -52,8 +52,8 @@ def handed_over(estimation: IOData, validation: IOData, source: str, options: Id
         return identify_continuous(estimation, validation, source, options, progress, phase)
     if options.method != "kernel":
         return None
-    result = identify_kernel(estimation, validation, nmax=options.nmax, x0=options.x0, center=options.center,
-                             feedthrough=options.feedthrough is True)
+    result = identify_kernel(estimation, validation, kernel=options.kernel, nmax=options.nmax, x0=options.x0,
+                             center=options.center, feedthrough=options.feedthrough is True)
     result.validation_source = source
     result.model.info["options"] = options.to_dict()      # as every identification records what made it
     return result
