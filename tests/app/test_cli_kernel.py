@@ -114,7 +114,7 @@ BAD = [
     (["fit", "still.csv", *IO, "--method", "kernel"], "input u3 never changes"),
     (["fit", "good.csv", "--frequency", "--method", "kernel"], "--method does not apply to --frequency"),
     (["fit", "good.csv", "--frequency", "--options", "kernel.json"], "asks for method='kernel'"),
-    (["fit", "good.csv", *IO, "--kernel", "DC"], "kernel must be 'TC' unless method='kernel'"),
+    (["fit", "good.csv", *IO, "--kernel", "DC"], "kernel must be 'TC' unless method is 'kernel' or 'kernel-arx'"),
     (["fit", "good.csv", "--frequency", "--kernel", "SS"], "--kernel does not apply to --frequency"),
     (["fit", "good.csv", *IO, "--method", "kernel", "--kernel", "gauss"], "'--kernel': 'gauss' is not one of"),
     (["fit-many", *IO, "--out", "many", "good.csv", "--method", "kernel", "--preset", "fast"],
@@ -156,3 +156,18 @@ def test_the_kernel_flag_names_the_prior_of_the_fit_and_of_the_fleet(folder):
     assert run(folder, "fit-many", *IO, "--out", "many", "good.csv", "--method", "kernel", "--kernel", "SS",
                "--nmax", "4", "--workers", "1").exit_code == 0
     assert json.loads((folder / "many" / "good.json").read_text())["A"] == saved["A"]
+
+
+def test_the_kernel_arx_method_writes_its_model_and_report(folder):
+    result = run(folder, "fit", "good.csv", *IO, "--method", "kernel-arx", "--kernel", "SS", "--nmax", "4",
+                 "--out", "arx.json", "--report", "arx")
+    assert result.exit_code == 0, result.output
+    saved = json.loads((folder / "arx.json").read_text())
+    assert saved["info"]["method"] == saved["info"]["options"]["method"] == "kernel-arx"
+    estimation, validation = moli.read_data(folder / "good.csv", ["u1", "u2", "u3"], ["y1", "y2", "y3"]).split(0.7)
+    direct = moli.identify_kernel_arx(estimation, validation, kernel="SS", nmax=4).model
+    # the same computation on the same split, up to the JSON file's 17 significant digits
+    np.testing.assert_allclose(moli.load_model(folder / "arx.json").A, direct.A, rtol=1e-12, atol=1e-14)
+    page = (folder / "arx" / "report.html").read_text()
+    assert "balanced reduction of the regularized ARX model (SS prior" in page and SECTION in page
+    assert run(folder, "fit", "good.csv", *IO, "--method", "kernel-arx", "--seed", "2").exit_code == 2

@@ -195,3 +195,21 @@ def test_bad_input_gets_one_clear_error():
         moli.identify_kernel_arx(data, x0="guess")
     with pytest.raises(moli.DataError, match="validation must be an IOData of the same channels"):
         moli.identify_kernel_arx(data, moli.IOData(np.zeros((50, 2)), np.zeros(50)))
+
+
+def test_identify_hands_the_kernel_arx_method_over_and_refuses_what_it_would_ignore():
+    data = moli.example_data(N=300, seed=1)
+    through_identify = moli.identify(data, method="kernel-arx", kernel="DC", nmax=6)
+    direct = moli.identify_kernel_arx(data, kernel="DC", nmax=6)
+    # the same split (the last 30 % held out) and the same computation: the same model to the bit
+    np.testing.assert_array_equal(through_identify.model.A, direct.model.A)
+    assert isinstance(through_identify, moli.KernelArxResult) and through_identify.arx.kernel == "DC"
+    assert through_identify.model.info["options"]["method"] == "kernel-arx"
+    with pytest.raises(moli.OptionError, match="method='kernel-arx' does not read seed"):
+        moli.identify(data, method="kernel-arx", seed=3)
+    with pytest.raises(moli.OptionError, match="method='kernel-arx' identifies sampled models"):
+        moli.identify(data, method="kernel-arx", time="continuous")
+    # a fleet in Python: each record's kernel ARX model
+    fleet = moli.identify_many({"a": data}, moli.IdentifyOptions(method="kernel-arx", nmax=6))
+    np.testing.assert_array_equal(fleet.entries[0].result.model.A,
+                                  moli.identify(data, method="kernel-arx", nmax=6).model.A)

@@ -67,7 +67,7 @@ def test_a_bad_field_is_named_in_the_error(field, which):
 
 def test_a_kernel_prior_other_than_tc_is_for_the_kernel_method_only():
     assert IdentifyOptions(method="kernel", kernel="SS").kernel == "SS"
-    with pytest.raises(OptionError, match=r"IdentifyOptions\.kernel must be 'TC' unless method='kernel'"):
+    with pytest.raises(OptionError, match=r"IdentifyOptions\.kernel must be 'TC' unless method is 'kernel'"):
         IdentifyOptions(kernel="DC")
 
 

@@ -27,7 +27,7 @@ from ..errors import DataError, MoliError, OptionError
 from ..method.identification import IdentificationResult
 from ..method.closed_loop.reference_projection import without_reference
 from ..method.options import PRESETS, IdentifyOptions
-from ..method.options.choices import KERNELS, METHODS
+from ..method.options.choices import KERNEL_METHODS, KERNELS, METHODS
 from ..method.search.greedy_path import PathStep, StructureSearch, exhaustive
 from ..models.storage import load_model
 from ..systems.plant import example_data
@@ -219,10 +219,11 @@ def demo(out_dir: Path, nmax: int, all_lists: bool, force: bool) -> None:
               help="A record taken under feedback: identify it as open-loop, by the two-stage method "
                    "(needs --reference) or by the direct prediction-error method [default: two-stage "
                    "with --reference, else direct where an input is a controller's output, else open].")
-@click.option("--method", type=click.Choice(METHODS), help="The MOLI path, or the realization of a regularized "
-              "impulse response, order chosen on validation (docs/regularization.md) [default: moli].")
-@click.option("--kernel", type=click.Choice(KERNELS), help="With --method kernel: the prior on each impulse "
-              "response (docs/regularization.md) [default: TC].")
+@click.option("--method", type=click.Choice(METHODS), help="The MOLI path, the realization of a regularized "
+              "impulse response (kernel) or the reduction of a regularized ARX model (kernel-arx), order chosen "
+              "on validation (docs/regularization.md) [default: moli].")
+@click.option("--kernel", type=click.Choice(KERNELS), help="With --method kernel or kernel-arx: the prior "
+              "(docs/regularization.md) [default: TC].")
 @click.option("--frequency", is_flag=True, help="DATA is a measured frequency response (a CSV of "
               "'<output>/<input> <part>' columns, docs/frequency.md): fit a model to it.")
 @click.option("--averages", type=click.IntRange(min=1), help="With --frequency: the spectra averaged per line, "
@@ -284,14 +285,15 @@ def fit(*, data_files: tuple[Path, ...], inputs: str | None, outputs: str | None
     if removed:
         data = remove_outliers(data)
         click.echo(f"outliers replaced by linear interpolation: {removed}")
-    if all_lists and (options.time == "continuous" or options.method == "kernel"):
-        raise OptionError("--all-lists is for the sampled MOLI search: leave it out with --continuous, --method kernel")
+    if all_lists and (options.time == "continuous" or options.method in KERNEL_METHODS):
+        raise OptionError("--all-lists is for the sampled MOLI search: leave it out with --continuous, "
+                          f"--method {options.method}")
     with InterruptHold() as hold:  # from the search's return to the model on disk, Ctrl-C waits
         facts = {"source": source, "outliers_removed": removed}
         if options.time == "continuous":
             code = fit_continuous(data, fraction, options, noted, model_path=model_path, report_dir=report_dir,
                                   data_files=data_files, facts=facts, hold=hold)
-        elif options.method == "kernel":
+        elif options.method in KERNEL_METHODS:
             code = fit_kernel(data, fraction, options, noted, model_path=model_path, report_dir=report_dir,
                               data_files=data_files, facts=facts, hold=hold)
         else:

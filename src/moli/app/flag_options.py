@@ -8,6 +8,7 @@ from typing import Any
 
 from ..errors import OptionError
 from ..method.options import IdentifyOptions
+from ..method.options.choices import KERNEL_METHODS
 
 __all__ = ["options_from_flags"]
 
@@ -20,8 +21,8 @@ def options_from_flags(options_file: Path | None, preset: str | None, *, runs_ke
     or ``--preset`` gives the base; every flag given on the command line (not None)
     then replaces its field. A saved model's options keep the model's time domain: a
     continuous model's run in continuous time (``time`` is set from the file's own
-    ``time``), and a file whose options say the other domain is refused. A file asking for
-    ``method='kernel'`` is refused unless the command runs it (``runs_kernel``).
+    ``time``), and a file whose options say the other domain is refused. A file asking for a
+    kernel method is refused unless the command runs it (``runs_kernel``).
     """
     given = {name: value for name, value in flags.items() if value is not None}
     if options_file is None:
@@ -37,10 +38,10 @@ def options_from_flags(options_file: Path | None, preset: str | None, *, runs_ke
     if isinstance(content, dict) and content.get("format") == "moli-model":
         content = _model_options(content, options_file)
     options = IdentifyOptions.from_dict(content).replace(**given)
-    if options.method == "kernel" and not runs_kernel:
-        raise OptionError(f"--options: {options_file} asks for method='kernel', which identifies time records "
-                          "(moli fit DATA --method kernel, moli fit-many ... --method kernel), not this command's "
-                          "data: use method 'moli'")
+    if options.method in KERNEL_METHODS and not runs_kernel:
+        raise OptionError(f"--options: {options_file} asks for method={options.method!r}, which identifies time "
+                          f"records (moli fit DATA --method {options.method}, moli fit-many ... --method "
+                          f"{options.method}), not this command's data: use method 'moli'")
     return options
 
 

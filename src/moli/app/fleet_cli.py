@@ -113,10 +113,10 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
     @click.option("--preset", type=click.Choice(PRESETS), help="Search options, as for moli fit [default: default].")
     @click.option("--nmax", type=int, help="Largest order on the greedy path [default: max(10, p + 4)].")
     @click.option("--seed", type=int, help="Seed of the randomized filter search [default: 0].")
-    @click.option("--method", type=click.Choice(METHODS), help="The MOLI path, or the kernel method for short "
+    @click.option("--method", type=click.Choice(METHODS), help="The MOLI path, or a kernel method for short "
                   "records, as for moli fit (docs/regularization.md) [default: moli].")
-    @click.option("--kernel", type=click.Choice(KERNELS), help="With --method kernel: the prior on each impulse "
-                  "response [default: TC].")
+    @click.option("--kernel", type=click.Choice(KERNELS), help="With --method kernel or kernel-arx: the prior "
+                  "[default: TC].")
     @click.option("--out", "out_dir", default="models", show_default=True, type=click.Path(path_type=Path),
                   help="Folder for NAME.json per record and summary.csv / summary.html.")
     @click.option("--force", is_flag=True, help="Overwrite model files and a summary already in --out.")

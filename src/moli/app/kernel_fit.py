@@ -1,6 +1,6 @@
-"""``moli fit --method kernel``: the state-space model realizing a record's regularized (TC,
-or ``--kernel``'s prior) impulse response, its order chosen on the held-out tail (docs/regularization.md), its model
-file and report."""
+"""``moli fit --method kernel`` (or ``kernel-arx``): the state-space model realizing a record's
+regularized impulse response (or reducing its regularized ARX model), its order chosen on the
+held-out tail (docs/regularization.md), its model file and report."""
 
 from __future__ import annotations
 
@@ -28,17 +28,18 @@ SHOWN_AFTER = 1.0
 def fit_kernel(data: IOData, fraction: float, options: IdentifyOptions, noted: RunWarnings, *,
                model_path: Path, report_dir: Path | None, data_files: tuple[Path, ...],
                facts: dict[str, Any], hold: InterruptHold) -> int:
-    """Identify by the kernel method on all but the last ``fraction`` of ``data``; save and report.
+    """Identify by a kernel method on all but the last ``fraction`` of ``data``; save and report.
 
     The model file's ``info`` holds what a MOLI model's does: the options, the run's warnings,
-    the kernel and the impulse response's length, and the data (fingerprint of the estimation
+    the kernel and the impulse response's or the ARX model's lags, and the data (fingerprint of the estimation
     part, sample counts, the input files' SHA-256, ``facts``). ``hold`` starts as the fit
     returns and ends once the model is written. Returns the exit code: 0 (the kernel method has
     no partial results).
     """
     estimation, validation = data.split(1.0 - fraction)       # the records as read, for the fingerprint
     with Phases() as phases:
-        phases.shown_after("regularized impulse response and its realizations", SHOWN_AFTER)
+        phases.shown_after("regularized impulse response and its realizations" if options.method == "kernel"
+                           else "regularized ARX model and its truncations", SHOWN_AFTER)
         result = held_out_search(data, fraction, options, noted, hold=hold)
     hashes = [file_sha256(path) for path in data_files]
     result.model.info.update({

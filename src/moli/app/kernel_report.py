@@ -1,10 +1,11 @@
-"""The HTML report of the kernel method (``moli fit --method kernel``, docs/regularization.md).
+"""The HTML report of the kernel methods (``moli fit --method kernel`` or ``kernel-arx``, docs/regularization.md).
 
 The sections of the MOLI report where they make sense: provenance, the selected model, the
-run's warnings, every order's realization with its validation VAF, the validation record beside
-the model's simulation, the poles, the step and gain responses with their bands, the regularized
-impulse and step responses the model realizes (with the hyperparameters that chose them), the
-residual analysis and the options.
+run's warnings, every order's realization (or truncation) with its validation VAF, the validation
+record beside the model's simulation, the poles, the step and gain responses with their bands,
+the regularized impulse and step responses (for ``kernel`` those the model realizes; for
+``kernel-arx`` the record's, as every report has them) with the hyperparameters that chose them,
+the residual analysis and the options.
 """
 
 from __future__ import annotations
@@ -17,12 +18,13 @@ from typing import Sequence
 import numpy as np
 
 from . import figures, frequency_figures
-from .impulse_section import IMPULSE_FIGURES, impulse_figures, impulse_section
+from .impulse_section import IMPULSE_FIGURES, impulse_figures, impulse_section, regularized_fit
 from .._version import __version__
 from ..data.atomic_files import write_atomic
 from ..data.display import period_text, report_name
 from ..data.files import file_sha256
 from ..data.iodata import longest_segment
+from ..method.kernel.arx_model import KernelArxResult
 from ..method.kernel.kernel_model import KernelResult
 from ..method.pipeline.routes import KERNEL_READS
 from ..validation.comparison import compare
@@ -31,7 +33,7 @@ from .report import STYLE, drawn_residuals, embedded_figures, facts_table, resid
 __all__ = ["write_kernel_report"]
 
 
-def _path_table(result: KernelResult) -> str:
+def _path_table(result: KernelResult | KernelArxResult) -> str:
     """Every order's realization: validation VAF per output, its mean, stability; the selected one highlighted."""
     names = result.estimation.output_names
     head = "".join(f"<th>{html.escape(h)}</th>" for h in
@@ -45,13 +47,13 @@ def _path_table(result: KernelResult) -> str:
     return f"<div class='wide'><table><tr>{head}</tr>{''.join(rows)}</table></div>"
 
 
-def write_kernel_report(result: KernelResult, directory: str | Path, data_file: str | Path | None = None, *,
-                        warnings: Sequence[str] = ()) -> Path:
-    """Write ``report.html`` and its figures (PNG) for the kernel method's identification.
+def write_kernel_report(result: KernelResult | KernelArxResult, directory: str | Path,
+                        data_file: str | Path | None = None, *, warnings: Sequence[str] = ()) -> Path:
+    """Write ``report.html`` and its figures (PNG) for a kernel method's identification.
 
     Parameters
     ----------
-    result : KernelResult
+    result : KernelResult or KernelArxResult
     directory : str or Path
         Created if missing.
     data_file : str or Path, optional
@@ -73,7 +75,16 @@ def write_kernel_report(result: KernelResult, directory: str | Path, data_file: 
     """
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
-    model, validation, fit = result.model, result.validation, result.impulse
+    model, validation = result.model, result.validation
+    if isinstance(result, KernelResult):
+        fit = result.impulse
+        method = f"realization of the regularized impulse response ({fit.kernel} prior, {len(fit.lags)} lags)"
+        steps, posterior = "realization of the impulse response below", "the impulse response's posterior"
+    else:
+        fit = regularized_fit(result.estimation)
+        method = (f"balanced reduction of the regularized ARX model ({result.arx.kernel} prior, {result.arx.lags} "
+                  "lags per channel)")
+        steps, posterior = "balanced truncation of the regularized ARX model", "the ARX model's posterior"
     options = model.info.get("options", {})
     x0 = options.get("x0", "zero")
     recorded = model.info.get("data", {})
@@ -85,7 +96,7 @@ def write_kernel_report(result: KernelResult, directory: str | Path, data_file: 
     provenance |= {"moli version": __version__,
                    "written (UTC)": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M:%S")}
     radius = float(np.max(np.abs(model.poles()), initial=0.0))
-    facts = {"method": f"realization of the regularized impulse response ({fit.kernel} prior, {len(fit.lags)} lags)",
+    facts = {"method": method,
              "order n": str(model.n), "outputs": ", ".join(map(report_name, model.output_names)),
              "inputs": ", ".join(map(report_name, model.input_names)),
              "Ts": period_text(model.Ts, model.info.get("time_unit")),
@@ -94,7 +105,7 @@ def write_kernel_report(result: KernelResult, directory: str | Path, data_file: 
                             f"{validation.N} validation samples ({result.validation_source})"}
     comparison = compare(model, validation, x0)
     bands = (f", shaded: pointwise {figures.BAND_CONFIDENCE:.0%} confidence band of the estimate "
-             "(the impulse response's posterior pushed through the realization)." if model.cov_factor is not None
+             f"({posterior} pushed through the model)." if model.cov_factor is not None
              else ".")
     drawn = {
         "validation": (figures.measured_vs_simulated(validation, comparison),
@@ -122,14 +133,14 @@ def write_kernel_report(result: KernelResult, directory: str | Path, data_file: 
 <h2>Selected model</h2>{facts_table(facts)}
 {warnings_section(warnings)}
 <h2>Realizations</h2>
-<p class="note">Each order's balanced realization of the impulse response below, simulated on the
+<p class="note">Each order's {steps}, simulated on the
 validation record from the {x0} initial state. VAF: percent, 100 is perfect, clipped at 0.</p>
 {_path_table(result)}
 <h2>Figures</h2>{"".join(shown.values())}
 {regularized}
 {residuals}
 <h2>Options</h2>
-<p class="note">The options the kernel method reads (the model records every option in info["options"]).</p>
+<p class="note">The options the kernel methods read (the model records every option in info["options"]).</p>
 {facts_table({name: str(value) for name, value in options.items() if name in KERNEL_READS})}
 </body></html>
 """

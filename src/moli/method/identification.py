@@ -65,7 +65,8 @@ def identify(
         Or, with ``time="continuous"``, a :class:`ContinuousResult` whose model is a
         :class:`ContinuousModel` (docs/continuous.md); from :class:`FrequencyData`, a
         :class:`FrequencyResult` (docs/frequency.md); with ``method="kernel"``, a
-        :class:`KernelResult` (docs/regularization.md).
+        :class:`KernelResult`, with ``method="kernel-arx"`` a :class:`KernelArxResult`
+        (docs/regularization.md).
 
     Raises
     ------

@@ -6,7 +6,7 @@ from typing import Any
 
 from ...validation.comparison import X0_CHOICES
 from .choices import (
-    CLOSED_LOOP_METHODS, FREQUENCY_STARTS, INPUT_HOLDS, KERNELS, METHODS, MIN_SEARCH_SAMPLES, ORDER_RULES,
+    CLOSED_LOOP_METHODS, FREQUENCY_STARTS, INPUT_HOLDS, KERNEL_METHODS, KERNELS, METHODS, MIN_SEARCH_SAMPLES, ORDER_RULES,
     REFINE_CHOICES, TIMES,
 )
 from .value_checks import (
@@ -82,7 +82,7 @@ def canonical_fields(options: Any) -> dict[str, Any]:
                            "needs reference=[names of the reference channels])", options.closed_loop)
     if checked["order"] is not None and checked["nmax"] is not None and checked["order"] > checked["nmax"]:
         raise option_error("order", f"at most nmax = {checked['nmax']} (the end of the path)", options.order)
-    if checked["kernel"] != "TC" and checked["method"] != "kernel":
-        raise option_error("kernel", "'TC' unless method='kernel' (only the kernel method has a prior to choose)",
-                           options.kernel)
+    if checked["kernel"] != "TC" and checked["method"] not in KERNEL_METHODS:
+        raise option_error("kernel", "'TC' unless method is 'kernel' or 'kernel-arx' (only the kernel methods have "
+                           "a prior to choose)", options.kernel)
     return checked

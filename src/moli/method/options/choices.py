@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 __all__ = ["REFINE_CHOICES", "EVAPORATOR_CHOICES", "ORDER_RULES", "FAST_CHOICES", "PRESETS", "TIMES", "INPUT_HOLDS",
-           "CLOSED_LOOP_METHODS", "METHODS", "KERNELS", "MIN_SEARCH_SAMPLES", "FREQUENCY_STARTS"]
+           "CLOSED_LOOP_METHODS", "METHODS", "KERNEL_METHODS", "KERNELS", "MIN_SEARCH_SAMPLES", "FREQUENCY_STARTS"]
 
 REFINE_CHOICES = ("none", "selected", "path", "guarded")
 # What the earlier presets share and the default no longer does (chosen on the
@@ -24,9 +24,11 @@ CLOSED_LOOP_METHODS = ("open", "two-stage", "direct")
 # Shortest search window: a few hundred samples still rank the filters and lists of
 # small plants; below that a window says too little about the record.
 MIN_SEARCH_SAMPLES = 500
-# What estimates the model: the MOLI path, or the realization of a regularized impulse response
-# (docs/regularization.md).
-METHODS = ("moli", "kernel")
+# What estimates the model: the MOLI path, the realization of a regularized impulse response, or
+# the balanced reduction of a regularized ARX model (docs/regularization.md); the last two are the
+# kernel methods.
+METHODS = ("moli", "kernel", "kernel-arx")
+KERNEL_METHODS = ("kernel", "kernel-arx")
 # The priors of the kernel method's impulse responses (moli.method.kernel.kernels): tuned-correlated,
 # diagonal-correlated, stable spline, or none (plain least squares; docs/regularization.md).
 KERNELS = ("TC", "DC", "SS", "none")

@@ -165,13 +165,14 @@ class IdentifyOptions:
         input that the outputs reproduce exactly (a controller's output) and
         ``feedthrough`` is not True; else "open", which warns when the record looks
         closed-loop. "open" keeps the open-loop fit whatever the check finds.
-    method : {"moli", "kernel"}, default "moli"
-        What estimates the model: the MOLI path, or the realization of a regularized
-        impulse response with its order chosen on validation (:func:`moli.identify_kernel`,
-        docs/regularization.md), which reads ``nmax``, ``x0``, ``center``, ``feedthrough`` and ``kernel``.
+    method : {"moli", "kernel", "kernel-arx"}, default "moli"
+        What estimates the model: the MOLI path; the realization of a regularized impulse response
+        (:func:`moli.identify_kernel`); or the balanced reduction of a regularized ARX model
+        (:func:`moli.identify_kernel_arx`), each with its order chosen on validation
+        (docs/regularization.md). The kernel methods read ``nmax``, ``x0``, ``center``, ``feedthrough`` and ``kernel``.
     kernel : {"TC", "DC", "SS", "none"}, default "TC"
-        The prior on each impulse response of ``method="kernel"`` (docs/regularization.md); any other
-        than "TC" with the MOLI path is an error.
+        The prior of the kernel methods (on each impulse response, or each ARX polynomial); any
+        other than "TC" with the MOLI path is an error.
     frequency_start : {"subspace", "both"}, default "subspace"
         Frequency data only: each order's model grows from the frequency-domain subspace
         start, or from it and the MOLI start on the frequency grid, the better refined

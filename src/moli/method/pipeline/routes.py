@@ -1,5 +1,5 @@
 """The identifications :func:`moli.identify` hands over whole once its records are split: continuous
-time (docs/continuous.md) and the kernel method (docs/regularization.md)."""
+time (docs/continuous.md) and the kernel methods (docs/regularization.md)."""
 
 from __future__ import annotations
 
@@ -9,36 +9,38 @@ from typing import Callable
 from ...data.iodata import IOData
 from ...errors import OptionError
 from ..continuous.identification import ContinuousResult, identify_continuous
+from ..kernel.arx_model import KernelArxResult, identify_kernel_arx
 from ..kernel.kernel_model import KernelResult, identify_kernel
+from ..options.choices import KERNEL_METHODS
 from ..options.identify_options import IdentifyOptions
 
 __all__ = ["handed_over", "check_kernel_options", "HandedOver", "KERNEL_READS"]
 
 # What the identifications handed over return.
-HandedOver = ContinuousResult | KernelResult
+HandedOver = ContinuousResult | KernelResult | KernelArxResult
 
-# The options the kernel method reads; any other changed from its default is refused (it would
+# The options the kernel methods read; any other changed from its default is refused (it would
 # be silently ignored).
 KERNEL_READS = frozenset({"nmax", "x0", "center", "feedthrough", "method", "kernel"})
 
 
 def check_kernel_options(options: IdentifyOptions) -> None:
-    """Raise :class:`OptionError` where ``options`` ask for the kernel method with a choice it does not read.
+    """Raise :class:`OptionError` where ``options`` ask for a kernel method with a choice it does not read.
 
     Parameters
     ----------
     options : IdentifyOptions
-        Options whose ``method`` is "kernel" (others pass).
+        Options whose ``method`` is "kernel" or "kernel-arx" (others pass).
     """
-    if options.method != "kernel":
+    if options.method not in KERNEL_METHODS:
         return
     if options.time == "continuous":
-        raise OptionError("method='kernel' identifies sampled models: leave time at 'discrete'")
+        raise OptionError(f"method={options.method!r} identifies sampled models: leave time at 'discrete'")
     default = IdentifyOptions()
     changed = [f.name for f in fields(IdentifyOptions)
                if f.name not in KERNEL_READS and getattr(options, f.name) != getattr(default, f.name)]
     if changed:
-        raise OptionError(f"method='kernel' does not read {', '.join(changed)}: leave "
+        raise OptionError(f"method={options.method!r} does not read {', '.join(changed)}: leave "
                           f"{'it' if len(changed) == 1 else 'them'} at the default, or use method='moli'")
 
 
@@ -50,10 +52,14 @@ def handed_over(estimation: IOData, validation: IOData, source: str, options: Id
     check_kernel_options(options)
     if options.time == "continuous":
         return identify_continuous(estimation, validation, source, options, progress, phase)
-    if options.method != "kernel":
+    if options.method not in KERNEL_METHODS:
         return None
-    result = identify_kernel(estimation, validation, kernel=options.kernel, nmax=options.nmax, x0=options.x0,
-                             center=options.center, feedthrough=options.feedthrough is True)
+    if options.method == "kernel":
+        result = identify_kernel(estimation, validation, kernel=options.kernel, nmax=options.nmax, x0=options.x0,
+                                 center=options.center, feedthrough=options.feedthrough is True)
+    else:
+        result = identify_kernel_arx(estimation, validation, kernel=options.kernel, nmax=options.nmax,
+                                     x0=options.x0, center=options.center, feedthrough=options.feedthrough)
     result.validation_source = source
     result.model.info["options"] = options.to_dict()      # as every identification records what made it
     return result
