@@ -247,7 +247,8 @@ def _fitted_and_drawn(Ts: float | None, outputs: int, seed: int) -> tuple:
     model = moli.identify(noisy(plant, omega, 0.02, 5, Ts=Ts)).model
     n, m, p = model.n, model.m, model.p
     nominal = np.concatenate([model.A.ravel(), model.B.ravel(), model.C.ravel(), model.D.ravel()])
-    draws = nominal + np.random.default_rng(seed).standard_normal((4000, model.cov_factor.shape[1])) @ model.cov_factor.T
+    draws = nominal + np.random.default_rng(seed).standard_normal((4000, model.cov_factor.shape[1])) \
+        @ model.cov_factor.T
     drawn = []
     for vector in draws:
         A, B, C, D = np.split(vector, np.cumsum([n * n, n * m, p * n]))

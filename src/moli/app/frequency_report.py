@@ -271,7 +271,8 @@ what the method assumes.</p>
 {facts_table(_provenance(None if data_file is None else Path(data_file), model.info.get("data", {})))}
 <h2>Selected model</h2>{facts_table(facts)}
 {warnings_section(warnings)}
-<h3>Modes (± one standard deviation; shapes: each output's share, largest 1, magnitude ∠ phase)</h3>{_modal_table(model)}
+<h3>Modes (± one standard deviation; shapes: each output's share, largest 1, magnitude ∠ phase)</h3>
+{_modal_table(model)}
 <h2>Orders tried</h2>
 <p class="note">Held-out VAF: the weighted fit on the held-out lines, percent. Cost: the weighted squared error
 on the estimation lines.</p>

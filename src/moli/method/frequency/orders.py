@@ -23,8 +23,8 @@ from .settings import FrequencySettings
 from .subspace import bilinear_points, input_and_feedthrough, observability_basis, poles_and_output
 
 __all__ = ["FitDomain", "FrequencyStep", "fit_domain", "problem_on", "held_out_shares", "start_model", "fit_order",
-           "modal_start", "judged_step", "subspace_basis", "weights_of", "band_wide_order", "thinned", "MAX_SHIFT_CONDITION",
-           "NYQUIST_MARGIN", "PATH_LINES"]
+           "modal_start", "judged_step", "subspace_basis", "weights_of", "band_wide_order", "thinned",
+           "MAX_SHIFT_CONDITION", "NYQUIST_MARGIN", "PATH_LINES"]
 
 # Lines an order's refinement on the path works on at most (every k-th estimation line beyond
 # that): the path's models only rank the orders on the held-out lines, which are all used. A

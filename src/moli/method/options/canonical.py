@@ -6,8 +6,8 @@ from typing import Any
 
 from ...validation.comparison import X0_CHOICES
 from .choices import (
-    CLOSED_LOOP_METHODS, FREQUENCY_STARTS, INPUT_HOLDS, KERNEL_METHODS, KERNELS, METHODS, MIN_SEARCH_SAMPLES, ORDER_RULES,
-    REFINE_CHOICES, TIMES,
+    CLOSED_LOOP_METHODS, FREQUENCY_STARTS, INPUT_HOLDS, KERNEL_METHODS, KERNELS, METHODS, MIN_SEARCH_SAMPLES,
+    ORDER_RULES, REFINE_CHOICES, TIMES,
 )
 from .value_checks import (
     check_choice, check_delays, check_flag, check_names, check_integer, check_number, check_omega_pairs, check_ridges,
@@ -34,7 +34,8 @@ def canonical_fields(options: Any) -> dict[str, Any]:
         if isinstance(options.refine, bool) else options.refine
     checked = {
         "nmax": None if options.nmax is None else check_integer("nmax", options.nmax, 1),
-        "order_rule": None if options.order_rule is None else check_choice("order_rule", options.order_rule, ORDER_RULES),
+        "order_rule": None if options.order_rule is None
+        else check_choice("order_rule", options.order_rule, ORDER_RULES),
         "order": None if options.order is None else check_integer("order", options.order, 1),
         "order_errors": check_number("order_errors", options.order_errors,
                                 "a number >= 0 (paired standard errors)", lambda z: z >= 0),
