@@ -195,6 +195,9 @@ def test_identify_kernel_refuses_bad_input():
         moli.identify_kernel(data, x0="random")
     with pytest.raises(moli.OptionError, match="kernel must be one of"):
         moli.identify_kernel(data, kernel="gauss")
+    for nmax in (0, 2.5, True):
+        with pytest.raises(moli.OptionError, match="nmax must be a positive integer"):
+            moli.identify_kernel(data, nmax=nmax)
     # the estimation part is the first 140 of the 200 samples: 140 lags reach beyond it
     with pytest.raises(moli.DataError, match=r"length = 140 lags reach beyond the longest segment \(140 samples\)"):
         moli.identify_kernel(data, length=140)
@@ -221,15 +224,16 @@ def test_identify_hands_the_kernel_method_over_and_refuses_what_it_would_ignore(
         moli.IdentifyOptions(method="ridge")
 
 
-def test_a_kernel_model_goes_through_save_info_validate_and_a_fleet(tmp_path):
+@pytest.mark.parametrize("method", ["kernel", "kernel-arx"])
+def test_a_kernel_model_goes_through_save_info_validate_and_a_fleet(tmp_path, method):
     from click.testing import CliRunner
 
     from moli.app.cli import cli
 
     data = moli.example_data(N=300, seed=1)
-    result = moli.identify(data, method="kernel", nmax=6)
+    result = moli.identify(data, method=method, nmax=6)
     # it records what made it, as every identification does
-    assert result.model.info["options"]["method"] == "kernel"
+    assert result.model.info["options"]["method"] == method
     result.model.save(tmp_path / "kernel.json")
     moli.to_dataframe(data).to_csv(tmp_path / "plant.csv")
     runner = CliRunner()
@@ -242,10 +246,12 @@ def test_a_kernel_model_goes_through_save_info_validate_and_a_fleet(tmp_path):
     rerun = runner.invoke(cli, ["fit-many", str(tmp_path / "plant.csv"), "--inputs", "u1,u2,u3", "--outputs",
                                 "y1,y2,y3", "--options", str(tmp_path / "kernel.json"), "--out", str(tmp_path / "f")])
     assert rerun.exit_code == 0, rerun.output
-    assert json.loads((tmp_path / "f" / "plant.json").read_text())["info"]["method"] == "kernel"
+    assert json.loads((tmp_path / "f" / "plant.json").read_text())["info"]["method"] == method
+    checked = runner.invoke(cli, ["validate-many", str(tmp_path / "f"), str(tmp_path / "plant.csv")])
+    assert checked.exit_code == 0, checked.output
     # a fleet in Python: each record's kernel model and its fit on the held-out tail
     fleet = moli.identify_many({"a": data, "b": moli.example_data(N=300, seed=2)},
-                               moli.IdentifyOptions(method="kernel", nmax=6))
+                               moli.IdentifyOptions(method=method, nmax=6))
     assert all(entry.error is None and entry.fit is not None for entry in fleet.entries)
 
 

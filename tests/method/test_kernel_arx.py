@@ -189,8 +189,9 @@ def test_bad_input_gets_one_clear_error():
         regularized_arx(data, "none", lags=40)
     with pytest.raises(moli.DataError, match="must be an IOData"):
         moli.identify_kernel_arx(np.zeros((100, 2)))
-    with pytest.raises(moli.OptionError, match="nmax must be a positive integer"):
-        moli.identify_kernel_arx(data, nmax=0)
+    for nmax in (0, 2.5, True):
+        with pytest.raises(moli.OptionError, match="nmax must be a positive integer"):
+            moli.identify_kernel_arx(data, nmax=nmax)
     with pytest.raises(moli.OptionError, match="x0 must be one of"):
         moli.identify_kernel_arx(data, x0="guess")
     with pytest.raises(moli.DataError, match="validation must be an IOData of the same channels"):
@@ -209,7 +210,3 @@ def test_identify_hands_the_kernel_arx_method_over_and_refuses_what_it_would_ign
         moli.identify(data, method="kernel-arx", seed=3)
     with pytest.raises(moli.OptionError, match="method='kernel-arx' identifies sampled models"):
         moli.identify(data, method="kernel-arx", time="continuous")
-    # a fleet in Python: each record's kernel ARX model
-    fleet = moli.identify_many({"a": data}, moli.IdentifyOptions(method="kernel-arx", nmax=6))
-    np.testing.assert_array_equal(fleet.entries[0].result.model.A,
-                                  moli.identify(data, method="kernel-arx", nmax=6).model.A)

@@ -32,15 +32,21 @@ def test_the_screened_list_has_the_lowest_j_at_the_filter(records):
     assert chosen == lists[int(np.argmin(alone))]
 
 
-def test_a_screened_path_tunes_one_list_per_step(records, monkeypatch):
-    tuned = []
+@pytest.fixture
+def tuned(monkeypatch) -> list:
+    """Every list the searches tune from here on, in order."""
+    lists = []
     original = StructureSearch._tune
 
-    def counting(self, lists):
-        tuned.extend(lists)
-        return original(self, lists)
+    def counting(self, candidates):
+        lists.extend(candidates)
+        return original(self, candidates)
 
     monkeypatch.setattr(StructureSearch, "_tune", counting)
+    return lists
+
+
+def test_a_screened_path_tunes_one_list_per_step(records, tuned):
     search = StructureSearch(*records, default_omega(1.0), tuning="grid", screen_lists=True)
     path = greedy.greedy_path(search, 7)
     assert [st.order for st in path] == [3, 4, 5, 6, 7]
@@ -67,15 +73,7 @@ def test_screened_identification_recovers_a_noise_free_plant(seed):
 
 
 @pytest.mark.parametrize("refine_siblings", [True, False])
-def test_the_sibling_lists_are_tuned_only_where_they_are_refined(records, monkeypatch, refine_siblings):
-    tuned = []
-    original = StructureSearch._tune
-
-    def counting(self, lists):
-        tuned.extend(lists)
-        return original(self, lists)
-
-    monkeypatch.setattr(StructureSearch, "_tune", counting)
+def test_the_sibling_lists_are_tuned_only_where_they_are_refined(records, tuned, refine_siblings):
     path = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -32,6 +32,7 @@ from ..least_squares.estimation import COND_LIMIT
 from .arx_rows import arx_factor, arx_rows
 from .fir_rows import FirFactor
 from .arx_evidence import fit_arx_output
+from .impulse import MAX_COEFFICIENTS, ROWS_PER_COEFFICIENT
 from .kernels import KERNELS, named_hyperparameters
 
 __all__ = ["RegularizedArx", "regularized_arx", "arx_state_space", "default_lags"]
@@ -39,10 +40,8 @@ __all__ = ["RegularizedArx", "regularized_arx", "arx_state_space", "default_lags
 # Lags per channel when none are given (arxRegul's generous fixed order), fewer where the
 # record or the cost asks: at most MAX_COEFFICIENTS per output (each likelihood evaluation is a
 # QR of twice as many rows by one more column) and at least ROWS_PER_COEFFICIENT regression
-# rows per coefficient (the prior carries the rest).
+# rows per coefficient (the prior carries the rest), the impulse response's limits.
 DEFAULT_LAGS = 30
-MAX_COEFFICIENTS = 200
-ROWS_PER_COEFFICIENT = 0.5
 
 
 @dataclass(frozen=True)

@@ -20,11 +20,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...data.iodata import IOData
-from ...errors import DataError, OptionError
+from ...errors import DataError
 from ...models.statespace import StateSpaceModel
 from .arx import RegularizedArx, regularized_arx
 from .balanced import balancing
-from .validated_orders import KernelStep, checked_records, order_table, validated_orders
+from .validated_orders import KernelStep, checked_records, order_bound, order_table, validated_orders
 
 __all__ = ["KernelArxResult", "identify_kernel_arx"]
 
@@ -92,12 +92,11 @@ def identify_kernel_arx(data: IOData, validation: IOData | None = None, *, kerne
     True
     """
     estimation, validation, source = checked_records(data, validation, x0)
-    if nmax is not None and (isinstance(nmax, bool) or not isinstance(nmax, (int, np.integer)) or nmax < 1):
-        raise OptionError(f"nmax must be a positive integer, got {nmax!r}")
+    last = order_bound(nmax, data.p)
     arx = regularized_arx(estimation, kernel, lags, feedthrough=feedthrough, center=center)
     A, B, C, D = arx.state_space()
     balanced = balancing(A, B, C)
-    top = max(balanced.unstable, min(nmax if nmax is not None else max(10, data.p + 4), balanced.largest_order))
+    top = max(balanced.unstable, min(last, balanced.largest_order))
     orders = range(max(1, balanced.unstable), top + 1)
     if not orders:
         raise DataError("the regularized ARX model has no response to the inputs (all its Hankel singular "

@@ -16,11 +16,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...data.iodata import IOData
-from ...errors import OptionError
 from ...models.statespace import StateSpaceModel
 from .impulse import ImpulseResponse, impulse_response
 from .realization import hankel_blocks, hankel_realization, realization_covariance
-from .validated_orders import KernelStep, checked_records, order_table, validated_orders
+from .validated_orders import KernelStep, checked_records, order_bound, order_table, validated_orders
 
 __all__ = ["KernelResult", "identify_kernel"]
 
@@ -84,12 +83,11 @@ def identify_kernel(data: IOData, validation: IOData | None = None, *, kernel: s
     True
     """
     estimation, validation, source = checked_records(data, validation, x0)
+    last = order_bound(nmax, data.p)
     fit = impulse_response(estimation, kernel, length, feedthrough=feedthrough, center=center)
     markov = fit.coefficients[int(feedthrough):]
     rows, cols = hankel_blocks(markov.shape[0])
-    top = min(nmax if nmax is not None else max(10, data.p + 4), rows * data.p, cols * data.m)
-    if isinstance(top, bool) or top < 1:
-        raise OptionError(f"nmax must be a positive integer, got {nmax!r}")
+    top = min(last, rows * data.p, cols * data.m)
     D = fit.coefficients[0] if feedthrough else np.zeros((data.p, data.m))
     # the operating point the fit removed
     means = (estimation.y.mean(axis=0), estimation.u.mean(axis=0)) if center else (None, None)

@@ -21,7 +21,7 @@ from ..search.greedy_path import ScoredStep
 from ..selection.order_rules import PAIRED_Z, select_by_shares
 from ..selection.paired_test import error_shares
 
-__all__ = ["HOLDOUT_FRACTION", "KernelStep", "checked_records", "validated_orders", "order_table"]
+__all__ = ["HOLDOUT_FRACTION", "KernelStep", "checked_records", "order_bound", "validated_orders", "order_table"]
 
 # Share of the record held out for the order when no validation record is given, as identify's.
 HOLDOUT_FRACTION = 0.3
@@ -50,6 +50,14 @@ def checked_records(data: IOData, validation: IOData | None, x0: str) -> tuple[I
             or not same_period(validation.Ts, data.Ts):
         raise DataError("validation must be an IOData of the same channels and sampling period as data")
     return data, validation, "given"
+
+
+def order_bound(nmax: object, p: int) -> int:
+    """The last order a kernel method may try for ``p`` outputs: ``nmax``, default ``max(10, p + 4)``
+    (the MOLI path's); an :class:`OptionError` where ``nmax`` is no positive integer."""
+    if nmax is not None and (isinstance(nmax, bool) or not isinstance(nmax, (int, np.integer)) or nmax < 1):
+        raise OptionError(f"nmax must be a positive integer, got {nmax!r}")
+    return int(nmax) if nmax is not None else max(10, p + 4)
 
 
 def validated_orders(models: Iterable[tuple[int, StateSpaceModel]], validation: IOData,
