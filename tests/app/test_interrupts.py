@@ -113,6 +113,49 @@ def test_ctrl_c_while_the_model_is_written_waits_until_it_is_whole(folder, monke
         time.sleep(1.0)
 
 
+def _import_cut_by_ctrl_c(*args, **kwargs):
+    """What Ctrl-C inside a C extension's initialization raises (matplotlib's on a cold start)."""
+    try:
+        raise KeyboardInterrupt
+    except KeyboardInterrupt as cut:
+        raise ImportError("initialization failed") from cut
+
+
+def test_ctrl_c_while_the_report_imports_its_libraries_keeps_the_model_and_exits_3(folder, monkeypatch):
+    monkeypatch.setattr(cli, "write_report", _import_cut_by_ctrl_c)
+    done = run("fit", "plant.csv", *FIT)
+    assert done.exit_code == 3, done.stderr
+    assert done.stderr.splitlines()[-1] == "moli: interrupted after writing moli-fit-plant/model.json"
+    assert moli.load_model(folder / "moli-fit-plant" / "model.json").n == 4
+
+
+def test_ctrl_c_while_the_console_script_imports_its_libraries_is_one_line_and_exits_130(folder):
+    # the command's module fails to import as a Ctrl-C in a C extension's initialization makes it fail
+    cut = ("import sys, importlib.abc\n"
+           "class Cut(importlib.abc.MetaPathFinder):\n"
+           "    def find_spec(self, name, path=None, target=None):\n"
+           "        if name == 'moli.app.cli':\n"
+           "            try:\n"
+           "                raise KeyboardInterrupt\n"
+           "            except KeyboardInterrupt as cut:\n"
+           "                raise ImportError('initialization failed') from cut\n"
+           "sys.meta_path.insert(0, Cut())\n"
+           "from moli.app.console import main; sys.argv[0] = 'moli'; main()")
+    env = {**os.environ, "PYTHONPATH": str(Path(moli.__file__).parents[1])}
+    done = subprocess.run([sys.executable, "-c", cut, "fit", "plant.csv", *FIT], cwd=folder, env=env,
+                          capture_output=True, text=True, timeout=120)
+    assert (done.returncode, done.stderr) == (130, "moli: interrupted\n")
+
+
+def test_an_import_error_of_its_own_is_not_taken_for_ctrl_c(folder, monkeypatch):
+    def broken(*args, **kwargs):
+        raise ImportError("no module named 'spam'")
+
+    monkeypatch.setattr(cli, "write_report", broken)
+    done = run("fit", "plant.csv", *FIT)
+    assert isinstance(done.exception, ImportError) and "interrupted" not in done.stderr
+
+
 def test_ctrl_c_before_any_model_exits_130(folder, monkeypatch):
     def interrupt(*args, **kwargs):
         raise KeyboardInterrupt

@@ -39,7 +39,7 @@ from .fleet_report import SCORES
 from .outputs import MODEL_WRITTEN, REPORT_FILE, fit_outputs, refuse_overwrite, run_folder, save_held
 from .progress import READING_SHOWN_AFTER, Phases
 from .reading import RunWarnings, names, read_records, reading_options
-from .console import PARTIAL, USAGE_ERROR, InterruptHold, interrupted
+from .console import PARTIAL, USAGE_ERROR, InterruptHold, interrupted, is_interrupt
 from .flag_options import options_from_flags
 from .continuous_fit import fit_continuous
 from .frequency_fit import fit_frequency
@@ -68,7 +68,9 @@ class _Group(click.Group):
         except click.UsageError as exc:
             click.echo(f"moli: error: {exc.format_message()}", err=True)
             sys.exit(USAGE_ERROR)
-        except KeyboardInterrupt:   # while the flags are parsed: nothing written yet
+        except BaseException as exc:     # Ctrl-C while the flags are parsed: nothing written yet
+            if not is_interrupt(exc):
+                raise
             sys.exit(interrupted())
 
     def invoke(self, ctx: click.Context) -> Any:
@@ -80,7 +82,9 @@ class _Group(click.Group):
         except (MoliError, OSError) as exc:
             click.echo(f"moli: error: {console_text(exc)}", err=True)
             ctx.exit(USAGE_ERROR)
-        except KeyboardInterrupt:   # 3 once the model is written (docs/cli.md, exit codes)
+        except BaseException as exc:     # Ctrl-C: 3 once the model is written (docs/cli.md, exit codes)
+            if not is_interrupt(exc):
+                raise
             written = ctx.meta.get(MODEL_WRITTEN)
             ctx.exit(interrupted(None if written is None else console_text(written)))
 

@@ -17,7 +17,7 @@ from types import FrameType
 from typing import Any
 
 __all__ = ["COMPLETE", "USAGE_ERROR", "PARTIAL", "INTERRUPTED", "InterruptHold", "stop_interrupts", "interrupted",
-           "main"]
+           "is_interrupt", "main"]
 
 COMPLETE = 0
 USAGE_ERROR = 2
@@ -27,6 +27,35 @@ INTERRUPTED_LINE = "moli: interrupted"
 # set by main(): the process is the console script's, whose Ctrl-C handling this module may change
 # for good; a command run from Python (click's test runner, a notebook) leaves its host's alone
 _owns_process = False
+
+
+def is_interrupt(exc: BaseException) -> bool:
+    """Whether ``exc`` is Ctrl-C or was raised because of it.
+
+    Ctrl-C inside a C extension's initialization (matplotlib's font module on a cold start)
+    surfaces as ``ImportError: initialization failed`` raised from the KeyboardInterrupt.
+
+    Examples
+    --------
+    >>> try:
+    ...     try:
+    ...         raise KeyboardInterrupt
+    ...     except KeyboardInterrupt as cut:
+    ...         raise ImportError("initialization failed") from cut
+    ... except ImportError as exc:
+    ...     is_interrupt(exc)
+    True
+    >>> is_interrupt(ValueError())
+    False
+    """
+    seen: set[int] = set()
+    link: BaseException | None = exc
+    while link is not None and id(link) not in seen:     # a chain may loop back on itself
+        if isinstance(link, KeyboardInterrupt):
+            return True
+        seen.add(id(link))
+        link = link.__cause__ or link.__context__
+    return False
 
 
 def _in_main_thread() -> bool:
@@ -133,7 +162,9 @@ def main() -> None:
         run_command()
     except SystemExit as ended:
         code = ended.code
-    except KeyboardInterrupt:                  # while the libraries load, before any command runs
+    except BaseException as exc:               # Ctrl-C while the libraries load, before any command runs
+        if not is_interrupt(exc):
+            raise
         code = interrupted()
     _end_at_once_on_interrupt(code if isinstance(code, int) else int(code is not None))
     sys.exit(code)

@@ -27,6 +27,7 @@ from ..method.options.choices import KERNELS, METHODS
 from ..method.pipeline.routes import check_kernel_options
 from ..models.storage import load_model
 from ..validation.comparison import X0_CHOICES, compare
+from .console import is_interrupt
 from .fleet_files import FleetSummary, kept_model
 from .fleet_report import SCORES, write_summary
 from .outputs import refuse_overwrite
@@ -168,8 +169,9 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
             fleet = identify_many(to_run, options, executor=executor, n_jobs=workers, read_options=read,
                                   timeout=timeout, on_entry=lambda entry: summary.add(entry, read)) \
                 if to_run else None
-        except KeyboardInterrupt:
-            summary.write()  # every record finished so far, the last one included
+        except BaseException as exc:
+            if is_interrupt(exc):
+                summary.write()  # every record finished so far, the last one included
             raise
         finally:
             if executor is not None:
