@@ -85,7 +85,7 @@ def test_a_full_disk_keeps_the_old_model(tmp_path, monkeypatch):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
     monkeypatch.setattr(atomic_files.os, "fsync", full)
-    with pytest.raises(OSError, match="No space left"):
+    with pytest.raises(moli.ModelFileError, match="No space left"):
         model(3).save(path)
     assert path.read_bytes() == before and os.listdir(tmp_path) == ["model.json"]
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import DataError, MoliError, wrong_type
 
-__all__ = ["real_number", "integer", "period", "real_array", "name_list"]
+__all__ = ["real_number", "integer", "flag", "period", "real_array", "name_list", "check_channel_order"]
 
 
 def _scalar(value: object) -> object:
@@ -52,6 +52,14 @@ def integer(name: str, value: object, *, error: type[MoliError] = DataError, low
     return int(value)
 
 
+def flag(name: str, value: object, *, error: type[MoliError] = DataError) -> bool:
+    """``value`` as a bool: True or False (numpy's too); text such as "False" is refused, not read as true."""
+    value = _scalar(value)
+    if not isinstance(value, (bool, np.bool_)):
+        raise wrong_type(error)(f"{name} must be True or False, got {value!r}")
+    return bool(value)
+
+
 def period(value: object, *, error: type[MoliError] = DataError, name: str = "Ts") -> float:
     """A sampling period: a positive finite number."""
     value = _scalar(value)
@@ -70,10 +78,15 @@ def real_array(name: str, value: object, *, error: type[MoliError] = DataError, 
     """
     if value is None or isinstance(value, (str, bytes)):
         raise wrong_type(error)(f"{name} must be an array of real (numeric) values, got {value!r}")
+    if isinstance(value, np.ma.MaskedArray):     # a masked entry is a missing value, not its stored one
+        value = np.ma.filled(value.astype(float), np.nan)
     try:
         raw = np.asarray(value)
     except ValueError as exc:  # ragged nested lists
         raise error(f"{name} must be a rectangular array of real numbers: {exc}") from None
+    if raw.dtype.kind in "mM":
+        raise error(f"{name} must be an array of real (numeric) values, got {raw.dtype} (dates or durations: "
+                    "give them as time stamps, times=...)")
     if raw.dtype.kind == "c" or raw.dtype == object and any(isinstance(x, complex) for x in raw.flat):
         raise error(f"{name} must be real, got complex values (take .real or abs() first if that is meant)")
     if raw.dtype.kind not in "biuf":
@@ -101,3 +114,20 @@ def name_list(name: str, value: object, count: int, *, error: type[MoliError] = 
     if len(set(names)) != len(names):
         raise error(f"{name} must be distinct, got {names}")
     return names
+
+
+def check_channel_order(first: object, second: object, first_what: str, second_what: str) -> None:
+    """Refuse ``second`` (a record) where its channels carry ``first``'s names in another order.
+
+    ``first`` and ``second`` have ``output_names`` and ``input_names`` (records, models) and
+    as many channels of each kind. Channels are matched by position, so a record whose columns
+    were given in another order would be scored, or fitted, channel against the wrong channel;
+    names that differ altogether (a record's default names beside a file's) say nothing of the
+    order and are let be.
+    """
+    for side in ("output", "input"):
+        ours, theirs = getattr(first, f"{side}_names"), getattr(second, f"{side}_names")
+        if tuple(ours) != tuple(theirs) and sorted(ours) == sorted(theirs):
+            raise DataError(f"{second_what}'s {side}s are {', '.join(theirs)} and {first_what}'s "
+                            f"{', '.join(ours)}: the same channels in another order, and channels are matched "
+                            f"by position; give {second_what}'s {side}s in {first_what}'s order")

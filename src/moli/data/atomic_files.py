@@ -16,6 +16,7 @@ time in another process keeps its file.
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import re
 import tempfile
@@ -23,9 +24,9 @@ import time
 from pathlib import Path
 from typing import IO, Iterable, Iterator
 
-from ..errors import MoliError
+from ..errors import DataError, ModelFileError, MoliError
 
-__all__ = ["atomic_file", "write_atomic", "remove_leftovers", "check_output_file", "check_output_folder"]
+__all__ = ["atomic_file", "write_atomic", "write_json", "remove_leftovers", "check_output_file", "check_output_folder"]
 
 # A temporary file is ``.<target name>.<writer's process id>.<mkstemp's 8 characters>.part``.
 TEMPORARY = re.compile(r"\..+\.(?P<pid>[1-9]\d{0,9})\.[a-z0-9_]{8}\.part")
@@ -171,6 +172,25 @@ def write_atomic(path: str | os.PathLike[str], content: str | bytes) -> None:
     """Write ``content`` (text as UTF-8, or bytes) to ``path`` through :func:`atomic_file`."""
     with atomic_file(path, "wb") as handle:
         handle.write(content.encode("utf-8") if isinstance(content, str) else content)
+
+
+def write_json(path: object, record: dict, what: str) -> None:
+    """``record`` as JSON in ``path``, whole or not at all (:func:`write_atomic`).
+
+    A value JSON cannot hold (an array, an object) is a :class:`DataError` naming ``what``; a
+    folder, a missing folder or no permission a :class:`ModelFileError` naming the path.
+    """
+    if not isinstance(path, (str, os.PathLike)):
+        raise DataError(f"path must be a str or Path, got {type(path).__name__}")
+    try:
+        text = json.dumps(record, indent=1)
+    except (TypeError, ValueError) as exc:
+        raise DataError(f"{what} holds a value JSON cannot store ({exc}): keep numbers, text, lists and "
+                        "dicts in its info (an array as .tolist())") from None
+    try:
+        write_atomic(path, text)
+    except OSError as exc:
+        raise ModelFileError(f"cannot write {what} to {path}: {exc.strerror or exc}") from None
 
 
 def _same_file(path: Path, other: Path) -> bool:

@@ -9,7 +9,8 @@ import numpy as np
 
 from ..errors import DataError
 from .arguments import name_list, period, real_array
-from .segments import check_starts, remove_missing_rows, segment_bounds, starts_after_cut, starts_in_slice
+from .segments import (check_slice, check_starts, remove_missing_rows, segment_bounds, starts_after_cut,
+                       starts_in_slice)
 from .stamps import UNSTATED_PERIOD, check_times, irregular_steps, joined_times, median_step
 
 __all__ = ["as_signal", "stack_signals", "IOData", "merge", "longest_segment", "require_one_segment"]
@@ -231,12 +232,7 @@ class IOData:
 
     def __getitem__(self, index: slice) -> "IOData":
         """Samples selected by a slice, e.g. ``data[100:600]``; segment boundaries inside it are kept."""
-        if not isinstance(index, slice):
-            raise DataError("IOData is indexed by a slice of samples, e.g. data[0:500]")
-        if self.n_segments > 1 and index.step not in (None, 1):
-            raise DataError(f"a record of {self.n_segments} segments is sliced with step 1 only, got {index}")
-        if self._times is not None and (index.step or 1) < 0:
-            raise DataError(f"a record with time stamps is sliced forwards only (a positive step), got {index}")
+        index = check_slice(index, self.N, self.n_segments, self._times is not None)
         y, u = self._y[index], self._u[index]
         if y.shape[0] == 0:
             raise DataError(f"slice {index} selects no samples of {self.N}")

@@ -137,8 +137,10 @@ def _exciting(u: np.ndarray, L: int, bounds: tuple[tuple[int, int], ...]) -> boo
 def _excitation_order(u: np.ndarray, limit: int, bounds: tuple[tuple[int, int], ...]) -> int:
     """Largest L <= limit for which the inputs are persistently exciting of order L."""
     centred = u - u.mean(axis=0)
-    # exciting of order L implies every lower order: test the order needed first
-    for L in range(limit, 0, -1):
+    # exciting of order L implies every lower order: test the order needed first; from
+    # L m >= N on, the Hankel matrix has no more rows than columns, so no such L is exciting
+    N, m = u.shape
+    for L in range(min(limit, -(-N // m) - 1), 0, -1):
         if _exciting(centred, L, bounds):
             return L
     return 0

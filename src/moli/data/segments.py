@@ -15,7 +15,7 @@ import numpy as np
 
 from ..errors import DataError
 
-__all__ = ["check_starts", "remove_missing_rows", "starts_in_slice", "starts_after_cut", "segment_bounds"]
+__all__ = ["check_starts", "remove_missing_rows", "check_slice", "starts_in_slice", "starts_after_cut", "segment_bounds"]
 
 
 def check_starts(starts: object, N: int) -> tuple[int, ...]:
@@ -56,6 +56,22 @@ def remove_missing_rows(
     new_starts = np.flatnonzero(begins[kept])
     return (y[kept], u[kept], None if times is None else times[kept],
             tuple(sorted({0, *new_starts.tolist()})))
+
+
+def check_slice(index: object, N: int, segments: int, stamped: bool) -> slice:
+    """``index`` where it slices a record of ``N`` samples in ``segments`` segments (with time
+    stamps where ``stamped``); a :class:`DataError` that says why where it does not."""
+    if not isinstance(index, slice):
+        raise DataError("IOData is indexed by a slice of samples, e.g. data[0:500]")
+    try:
+        index.indices(N)
+    except (TypeError, ValueError):          # bounds or a step that are no integers, a zero step
+        raise DataError(f"IOData is sliced by integers with a non-zero step, e.g. data[0:500], got {index}") from None
+    if segments > 1 and index.step not in (None, 1):
+        raise DataError(f"a record of {segments} segments is sliced with step 1 only, got {index}")
+    if stamped and (index.step or 1) < 0:
+        raise DataError(f"a record with time stamps is sliced forwards only (a positive step), got {index}")
+    return index
 
 
 def starts_in_slice(starts: tuple[int, ...], N: int, index: slice) -> tuple[int, ...]:

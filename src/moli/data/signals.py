@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..errors import MoliError
+from .arguments import integer, real_array, real_number
 
 __all__ = ["SignalError", "random_binary_signal", "dwell_times"]
 
@@ -69,21 +70,23 @@ def random_binary_signal(
     >>> np.unique(u[:, 0])
     array([0.3, 0.8])
     """
-    if int(N) != N or N < 1:
-        raise SignalError(f"N must be a positive integer, got {N!r}")
-    N = int(N)
-    if not (np.isfinite(Ts) and Ts > 0):
-        raise SignalError(f"Ts must be positive, got {Ts!r}")
-    if not (np.isfinite(mean_switch_time) and mean_switch_time >= Ts):
+    N = integer("N", N, error=SignalError, low=1)
+    Ts = real_number("Ts", Ts, error=SignalError, low=0.0, low_open=True)
+    if real_number("mean_switch_time", mean_switch_time, error=SignalError) < Ts:
         raise SignalError(
             f"mean_switch_time must be at least Ts = {Ts} (one switch per sample at most), "
             f"got {mean_switch_time!r}"
         )
-    table = np.array(levels, dtype=float, ndmin=2)
-    if table.ndim != 2 or table.shape[1] != 2 or not np.all(np.isfinite(table)):
-        raise SignalError(f"levels must have shape (2,) or (channels, 2), got {np.shape(levels)}")
-    if switch_within is not None and not 1 < switch_within <= N:
+    table = real_array("levels", levels, error=SignalError)
+    table = table[None] if table.ndim == 1 else table
+    if table.ndim != 2 or table.shape[1] != 2:
+        raise SignalError(f"levels must have shape (2,) or (channels, 2), got {table.shape}")
+    if np.any(table[:, 0] == table[:, 1]):
+        raise SignalError(f"levels must be two different values for each channel, got {table.tolist()}")
+    if switch_within is not None and not 1 < integer("switch_within", switch_within, error=SignalError) <= N:
         raise SignalError(f"switch_within must lie in 2..{N}, got {switch_within!r}")
+    integer("seed", seed, error=SignalError, low=0)
+    max_draws = integer("max_draws", max_draws, error=SignalError, low=1)
     rng = np.random.default_rng(seed)
     prob = Ts / mean_switch_time
     out = np.empty((N, table.shape[0]))

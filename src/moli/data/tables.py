@@ -341,13 +341,13 @@ def frame_table(frame: "pd.DataFrame", source: str, row: Callable[[int], str] = 
     import pandas as pd
 
     columns: dict[str, np.ndarray] = {}
-    series = [frame[name] for name in frame.columns]
+    series = [frame.iloc[:, i] for i in range(frame.shape[1])]    # by position: names may repeat
     if frame.index.name is not None:
         series.append(frame.index.to_series())
     for column in series:
         name = str(column.name).strip()
         if name in columns:
-            continue
+            raise DataError(f"{source} has two columns named {name!r}; rename one, so that each has its own name")
         if isinstance(column.dtype, pd.DatetimeTZDtype):
             column = column.dt.tz_convert(None)
         numeric = pd.api.types.is_numeric_dtype(column) and not pd.api.types.is_bool_dtype(column)

@@ -340,6 +340,15 @@ def _sniffed_bytes(handle: BinaryIO, head: bytes) -> tuple[bytes, bool]:
     return bytes(sniffed), len(head) < DETECT_BYTES
 
 
+def _check_repeated(header: list[str], kept: set[str], path: Path) -> None:
+    """Refuse a header that names a column the request reads twice (pandas would rename the second)."""
+    names = [name.strip() for name in header]
+    repeated = sorted({name for name in names if names.count(name) > 1} & kept)
+    if repeated:
+        raise DataError(f"{path}: the header names the column {repeated[0]!r} {names.count(repeated[0])} times; "
+                        "rename them so that each channel has a name of its own")
+
+
 def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: str | None,
               needed: Callable[[list[str]], set[str] | None]) -> Table:
     """The columns of a text table, every cell located by its line in the file.
@@ -374,12 +383,16 @@ def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: 
         check_header(header, str(path))
         names = list(dict.fromkeys(name.strip() for name in header))
         kept = needed(names) or set()
+        raw = pd.read_csv(path, nrows=1, header=None, dtype=str, keep_default_na=False, **options)   # unrenamed
+        _check_repeated([str(name) for name in raw.iloc[0]] if len(raw) else [], kept, path)
         columns = {}
         if kept & set(names):
             with pd.read_csv(path, chunksize=frame_files.CHUNK_ROWS, **options) as reader:
                 columns = join_chunks(reader, str(path), [n for n in names if n in kept])
     except UnicodeDecodeError:
         raise _undecodable(path, chosen, encoding is not None) from None
+    except DataError:
+        raise
     except ValueError as exc:  # pandas' ParserError and EmptyDataError are ValueErrors
         raise DataError(f"cannot read {path} as a table with {_shown(delimiter)} between "
                         f"columns: {exc}") from None

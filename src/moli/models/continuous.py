@@ -12,7 +12,6 @@ and a continuous model has none of them (docs/diagnostics.md §2).
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -20,8 +19,9 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
+from ..data.arguments import real_array
 from ..data.display import angular_unit
-from ..data.atomic_files import write_atomic
+from ..data.atomic_files import write_json
 from ..errors import DataError, OptionError
 from .bands import magnitude_bands, step_bands
 from .checks import Dimensions, matrix, stored_names, time_delays, vector
@@ -161,9 +161,9 @@ class ContinuousModel(Dimensions):
         if any(self.input_delays):
             raise DataError(f"the model has input delays {list(self.input_delays)}: simulate its sampled "
                             "form (to_discrete(Ts).simulate) instead")
-        inputs = np.array(u, dtype=float, ndmin=1)
+        inputs = np.array(real_array("u", u, finite=False), ndmin=1)
         inputs = inputs[:, None] if inputs.ndim == 1 else inputs
-        stamps = np.array(t, dtype=float, ndmin=1)
+        stamps = np.array(real_array("t", t, finite=False), ndmin=1)
         if inputs.ndim != 2 or inputs.shape[1] != self.m or not np.all(np.isfinite(inputs)):
             raise DataError(f"u must be finite with shape (N, {self.m}), got shape {np.shape(u)}")
         if np.ndim(t) == 0:
@@ -177,7 +177,7 @@ class ContinuousModel(Dimensions):
             raise DataError(f"t must increase: t[{k}] = {stamps[k]:g} follows t[{k - 1}] = {stamps[k - 1]:g}")
         start = None
         if x0 is not None:
-            start = np.array(x0, dtype=float).reshape(-1)
+            start = real_array("x0", x0, finite=False).reshape(-1)
             if start.shape != (self.n,) or not np.all(np.isfinite(start)):
                 raise DataError(f"x0 must be {self.n} finite numbers, got shape {np.shape(x0)}")
         states = propagate(self.A, self.B, stamps - stamps[0], inputs[:, :, None],
@@ -314,9 +314,8 @@ class ContinuousModel(Dimensions):
 
     def save(self, path: str | Path) -> None:
         """Write the model to a JSON file, whole or not at all."""
-        if not isinstance(path, (str, Path)):
-            raise DataError(f"path must be a str or Path, got {type(path).__name__}")
-        write_atomic(path, json.dumps(self.to_dict(), indent=1))
+        # whole or not at all: a failed or interrupted save keeps the previous file
+        write_json(path, self.to_dict(), "the model")
 
     def frequency_response(self, omega: object) -> np.ndarray:
         """``C (j omega I - A)^-1 B + D``, times ``exp(-j omega tau_j)`` per input: shape (F, p, m).

@@ -152,6 +152,9 @@ def modes(model: Any) -> tuple[Mode, ...]:
     >>> round(mode.natural_frequency, 6), round(mode.damping, 6)      # |-0.1 + 10j|, 0.1 / |.|
     (10.0005, 0.01)
     """
+    if not all(hasattr(model, name) for name in ("A", "B", "C")):
+        raise DataError(f"modes takes a model (StateSpaceModel or ContinuousModel), got {type(model).__name__}"
+                        + ("; pass its .model" if hasattr(model, "model") else ""))
     A, C = np.asarray(model.A, float), np.asarray(model.C, float)
     if A.shape[0] == 0:
         raise DataError("the model has no states, hence no modes")

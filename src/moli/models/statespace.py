@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import warnings
 from pathlib import Path
 from typing import Any, Sequence
@@ -11,7 +10,7 @@ import numpy as np
 
 from .._version import __version__
 from ..data.arguments import integer, period, real_array
-from ..data.atomic_files import write_atomic
+from ..data.atomic_files import write_json
 from ..data.iodata import as_signal
 from ..errors import DataError, UnstableModelWarning
 from .bands import magnitude_bands, step_bands
@@ -109,6 +108,9 @@ class StateSpaceModel(Dimensions):
         self.output_names = channel_names(output_names, p, "y", "output_names")
         self.input_names = channel_names(input_names, m, "u", "input_names")
         self.indices = indices_of(indices)
+        if self.indices is not None and (len(self.indices) != p or sum(self.indices) != self.A.shape[0]):
+            raise DataError(f"indices {list(self.indices)} must hold one observability index per output ({p}) "
+                            f"summing to the order ({self.A.shape[0]})")
         self.alpha = None if alpha is None else real_array("alpha", alpha, ndim=1)
         self.y_offset, self.u_offset = vector("y_offset", y_offset, p), vector("u_offset", u_offset, m)
         if info is not None and not isinstance(info, dict):
@@ -280,10 +282,8 @@ class StateSpaceModel(Dimensions):
 
     def save(self, path: str | Path) -> None:
         """Write the model to a JSON file (read it back with :func:`moli.load_model`)."""
-        if not isinstance(path, (str, Path)):
-            raise DataError(f"path must be a str or Path, got {type(path).__name__}")
         # whole or not at all: a failed or interrupted save keeps the previous file
-        write_atomic(path, json.dumps(self.to_dict(), indent=1))
+        write_json(path, self.to_dict(), "the model")
 
     # Delays, frequency response and continuous time (docs/diagnostics.md). The delays
     # are set by with_input_delays on a copy, so the constructor keeps its signature.

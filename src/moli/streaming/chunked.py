@@ -24,6 +24,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..data.arguments import real_array
 from ..errors import DataError, IllConditionedWarning, OptionError
 from ..method.least_squares.estimation import COND_LIMIT, check_sample_count, realize, solve_batch
 from ..models.statespace import StateSpaceModel
@@ -113,7 +114,9 @@ class ChunkedEstimator(FixedFilterEstimator):
         if isinstance(start, bool) or not isinstance(start, (int, np.integer)) or start < 0:
             raise OptionError(f"start must be a sample count >= 0, got {start!r}")
         expected = [state.shape[1:] for state in self._bank.filter_states()]
-        arrays = [np.array(state, dtype=float) for state in states]
+        if isinstance(states, (str, bytes)) or not isinstance(states, Sequence):
+            raise DataError(f"states must be the sequence of arrays filter_states() gives, got {states!r}")
+        arrays = [real_array("each of the states", state, finite=False) for state in states]
         if [a.shape for a in arrays] != expected or not all(np.all(np.isfinite(a)) for a in arrays):
             raise DataError(f"states must be finite arrays of shapes {expected}")
         self._bank.resume(int(start), [a[None] for a in arrays])

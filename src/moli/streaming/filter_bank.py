@@ -16,6 +16,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ..data.arguments import integer
 from ..errors import DataError, OptionError
 from ..method.structure.filters import filter_divisors, filter_polynomial
 from ..models.statespace import StateSpaceModel
@@ -79,13 +80,11 @@ class FilterBank:
     ) -> None:
         self.indices = check_indices(indices, len(indices))
         grid = check_omega(omega)
-        if int(m) != m or m < 1:
-            raise OptionError(f"m (number of inputs) must be a positive integer, got {m!r}")
-        burn_in = window // 5 if burn_in is None else burn_in
-        for name, value, low in (("retune_every", retune_every, 1), ("window", window, 2)):
-            if int(value) != value or value < low:
-                raise OptionError(f"{name} must be an integer >= {low}, got {value!r}")
-        if int(burn_in) != burn_in or not 0 <= burn_in <= window - 2:
+        m = integer("m (the number of inputs)", m, error=OptionError, low=1)
+        retune_every = integer("retune_every", retune_every, error=OptionError, low=1)
+        window = integer("window", window, error=OptionError, low=2)
+        burn_in = window // 5 if burn_in is None else integer("burn_in", burn_in, error=OptionError, low=0)
+        if burn_in > window - 2:
             raise OptionError(f"burn_in must be an integer in 0..window-2, got {burn_in!r}")
         check_options(forgetting, noise_variance, p0)
         self.m, self.Ts, self.s = int(m), float(Ts), float(s)

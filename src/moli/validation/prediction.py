@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..data.arguments import check_channel_order
 from ..data.iodata import IOData
 from ..errors import DataError, OptionError
 from ..models.delays import shift_inputs
@@ -68,6 +69,7 @@ def deviations(model: LinearModel, data: IOData) -> tuple[np.ndarray, np.ndarray
         raise DataError(
             f"model has {model.p} outputs and {model.m} inputs, data have {data.p} and {data.m}"
         )
+    check_channel_order(model, data, "the model", "data")
     return data.u + data.u_offset - model.u_offset, data.y + data.y_offset - model.y_offset
 
 

@@ -25,15 +25,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...data.arguments import integer
+from ...data.arguments import flag, integer
 from ...data.iodata import IOData
 from ...errors import DataError, OptionError
 from ..least_squares.estimation import COND_LIMIT
 from .arx_rows import arx_factor, arx_rows
 from .fir_rows import FirFactor
 from .arx_evidence import fit_arx_output
-from .impulse import MAX_COEFFICIENTS, ROWS_PER_COEFFICIENT
-from .kernels import KERNELS, named_hyperparameters
+from .impulse import MAX_COEFFICIENTS, ROWS_PER_COEFFICIENT, centred_record, check_kernel_arguments
+from .kernels import named_hyperparameters
 
 __all__ = ["RegularizedArx", "regularized_arx", "arx_state_space", "default_lags"]
 
@@ -173,20 +173,15 @@ def regularized_arx(data: IOData, kernel: str = "TC", lags: int | None = None, *
     >>> bool(abs(fit.outputs[0, 0, 0] - 0.8) < 0.05 and abs(fit.inputs[1, 0, 0] - 1.0) < 0.05)
     True
     """
-    if not isinstance(data, IOData):
-        raise DataError(f"data must be an IOData, got {type(data).__name__}")
-    if kernel not in KERNELS:
-        raise OptionError(f"kernel must be one of {KERNELS}, got {kernel!r}")
+    check_kernel_arguments(data, kernel, center)
     if lags is not None:
         lags = integer("lags", lags, error=OptionError, low=1)
-    if feedthrough not in (True, False, "auto") or isinstance(feedthrough, (int, float)) and \
-            not isinstance(feedthrough, bool):
-        raise OptionError(f"feedthrough must be True, False or 'auto', got {feedthrough!r}")
-    record = data.remove_means() if center else data
-    still = [name for name, spread in zip(record.input_names, np.ptp(record.u, axis=0)) if spread == 0]
-    if still:
-        raise DataError(f"input {', '.join(still)} never changes: the record says nothing of its response; "
-                        "leave it out of the inputs")
+    if not (isinstance(feedthrough, str) and feedthrough == "auto"):
+        try:
+            feedthrough = flag("feedthrough", feedthrough, error=OptionError)
+        except OptionError:
+            raise OptionError(f"feedthrough must be True, False or 'auto', got {feedthrough!r}") from None
+    record = centred_record(data, center)
     longest = max(stop - start for start, stop in record.bounds)
     if lags is not None and lags >= longest:
         raise DataError(f"lags = {lags} reach beyond the longest segment ({longest} samples): give fewer lags")

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...data.arguments import integer
+from ...data.arguments import flag, integer
 from ...data.iodata import IOData
 from ...errors import DataError, OptionError
 from ..least_squares.estimation import COND_LIMIT
@@ -94,6 +94,26 @@ class ImpulseResponse:
         return centre - z * sd, centre + z * sd
 
 
+def check_kernel_arguments(data: object, kernel: object, center: object) -> None:
+    """What every kernel estimate checks first: an IOData, a known kernel, ``center`` a flag."""
+    if not isinstance(data, IOData):
+        raise DataError(f"data must be an IOData, got {type(data).__name__}")
+    if kernel not in KERNELS:
+        raise OptionError(f"kernel must be one of {KERNELS}, got {kernel!r}")
+    flag("center", center, error=OptionError)
+
+
+def centred_record(data: IOData, center: bool) -> IOData:
+    """The record a kernel estimate fits (its deviations from the means where ``center``); an
+    input that never changes is refused, as nothing of its response is in the record."""
+    record = data.remove_means() if center else data
+    still = [name for name, spread in zip(record.input_names, np.ptp(record.u, axis=0)) if spread == 0]
+    if still:
+        raise DataError(f"input {', '.join(still)} never changes: the record says nothing of its response; "
+                        "leave it out of the inputs")
+    return record
+
+
 def impulse_response(data: IOData, kernel: str = "TC", length: int | None = None, *,
                      feedthrough: bool = False, center: bool = True) -> ImpulseResponse:
     """A MIMO impulse response by regularized least squares (empirical Bayes).
@@ -137,18 +157,11 @@ def impulse_response(data: IOData, kernel: str = "TC", length: int | None = None
     >>> bool(np.max(np.abs(fit.coefficients[:, 0, 0] - 0.8 ** np.arange(30))) < 0.1)
     True
     """
-    if not isinstance(data, IOData):
-        raise DataError(f"data must be an IOData, got {type(data).__name__}")
-    if kernel not in KERNELS:
-        raise OptionError(f"kernel must be one of {KERNELS}, got {kernel!r}")
+    check_kernel_arguments(data, kernel, center)
     if length is not None:
         length = integer("length", length, error=OptionError, low=1)
-    record = data.remove_means() if center else data
-    still = [name for name, spread in zip(record.input_names, np.ptp(record.u, axis=0)) if spread == 0]
-    if still:
-        raise DataError(f"input {', '.join(still)} never changes: the record says nothing of its response; "
-                        "leave it out of the inputs")
-    first = 0 if feedthrough else 1
+    first = 0 if flag("feedthrough", feedthrough, error=OptionError) else 1
+    record = centred_record(data, center)
     longest = max(stop - start for start, stop in record.bounds)
     if length is not None and length >= longest:
         raise DataError(f"length = {length} lags reach beyond the longest segment ({longest} samples): "

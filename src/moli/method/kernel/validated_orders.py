@@ -13,6 +13,7 @@ from typing import Iterable
 
 import numpy as np
 
+from ...data.arguments import check_channel_order
 from ...data.iodata import IOData
 from ...errors import DataError, OptionError
 from ...models.statespace import StateSpaceModel
@@ -49,6 +50,7 @@ def checked_records(data: IOData, validation: IOData | None, x0: str) -> tuple[I
     if not isinstance(validation, IOData) or (validation.p, validation.m) != (data.p, data.m) \
             or not same_period(validation.Ts, data.Ts):
         raise DataError("validation must be an IOData of the same channels and sampling period as data")
+    check_channel_order(data, validation, "data", "validation")
     return data, validation, "given"
 
 

@@ -25,9 +25,9 @@ def canonical_fields(options: Any) -> dict[str, Any]:
     """Every field of ``options`` (an :class:`moli.IdentifyOptions` being built) checked and in its
     canonical form; an :class:`moli.OptionError` naming the field and what it accepts where one is wrong."""
     radius = options.max_radius
-    if radius == "none" or radius is None:
+    if radius is None or isinstance(radius, str) and radius == "none":
         radius = None
-    elif radius != "auto":
+    elif not (isinstance(radius, str) and radius == "auto"):
         radius = check_number("max_radius", radius, "'auto', None or a number in (0, 1]",
                          lambda r: 0 < r <= 1)
     refine = {True: "selected", False: "none"}.get(options.refine, options.refine) \

@@ -4,6 +4,7 @@ an :class:`OptionError` that names the field of :class:`moli.IdentifyOptions` an
 from __future__ import annotations
 
 import math
+import numbers
 from typing import Any
 
 import numpy as np
@@ -20,18 +21,41 @@ def option_error(name: str, accepted: str, value: object, of_type: bool = False)
     return error(f"IdentifyOptions.{name} must be {accepted}, got {value!r}")
 
 
+def _is_flag(value: object) -> bool:
+    return isinstance(value, (bool, np.bool_))
+
+
+def _unwrapped(value: object) -> object:
+    """A 0-d array's item; anything else as given (an array of one element keeps its shape)."""
+    return value.item() if isinstance(value, np.ndarray) and value.ndim == 0 else value
+
+
+def _as_index(value: object) -> int | None:
+    """``value`` as an int where it is one (a Python or numpy integer), else None (a bool, an
+    array, a float: ``__index__`` refuses them or is absent)."""
+    value = _unwrapped(value)
+    if _is_flag(value) or isinstance(value, np.ndarray) or not hasattr(value, "__index__"):
+        return None
+    try:
+        return int(value.__index__())  # type: ignore[union-attr]
+    except TypeError:
+        return None
+
+
 def check_integer(name: str, value: object, low: int, high: int | None = None) -> int:
     accepted = f"an integer >= {low}" if high is None else f"an integer from {low} to {high}"
-    if isinstance(value, bool) or not hasattr(value, "__index__"):
+    number = _as_index(value)
+    if number is None:
         raise option_error(name, accepted, value, of_type=True)
-    number = int(value.__index__())  # type: ignore[union-attr]
     if number < low or (high is not None and number > high):
         raise option_error(name, accepted, value)
     return number
 
 
 def check_number(name: str, value: object, accepted: str, ok: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) and not hasattr(value, "__float__"):
+    # a complex value would lose its imaginary part to float(), an array of one element its shape
+    value = _unwrapped(value)
+    if not isinstance(value, numbers.Real) or _is_flag(value):
         raise option_error(name, accepted, value, of_type=True)
     number = float(value)  # type: ignore[arg-type]
     if not (math.isfinite(number) and ok(number)):
@@ -56,9 +80,9 @@ def check_choice(name: str, value: object, choices: tuple[Any, ...]) -> Any:
 
 
 def check_flag(name: str, value: object) -> bool:
-    if not isinstance(value, bool):
+    if not _is_flag(value):
         raise option_error(name, "True or False", value, of_type=True)
-    return value
+    return bool(value)
 
 
 def check_omega_pairs(value: object) -> tuple[tuple[float, float], ...] | None:
@@ -86,10 +110,10 @@ def check_delays(value: object) -> int | tuple[int, ...] | str:
     accepted = "'auto', a non-negative integer (every input) or a non-empty sequence of them (one per input)"
 
     def one(item: object) -> int:
-        if isinstance(item, (bool, np.bool_)) or not hasattr(item, "__index__") \
-                or item.__index__() < 0:  # type: ignore[union-attr]
+        delay = _as_index(item)
+        if delay is None or delay < 0:
             raise option_error("delays", accepted, value)
-        return int(item.__index__())  # type: ignore[union-attr]
+        return delay
 
     if isinstance(value, (list, tuple, np.ndarray)):
         if len(value) == 0:

@@ -12,6 +12,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ...data.arguments import check_channel_order
 from ...data.iodata import IOData, longest_segment
 from ...data.quality import screen
 from ...errors import DataError, OptionError
@@ -24,6 +25,7 @@ from ..options.identify_options import IdentifyOptions
 from ..refinement.levenberg_marquardt import MAX_RADIUS
 from ..refinement.refined_steps import RefinedSteps
 from ..search.long_records import search_window
+from ..structure.filters import check_candidates
 from ..tuning.barycenter import default_omega
 from .records import check_reach, check_scales, input_delays, long_segments, shifted_inputs, short_segments
 
@@ -119,6 +121,7 @@ def split_records(data: IOData, validation: IOData | None, options: IdentifyOpti
                 f"validation has {validation.p} outputs and {validation.m} inputs, "
                 f"data have {data.p} and {data.m}"
             )
+        check_channel_order(data, validation, "data", "validation")
         if options.time == "discrete" and not same_period(validation.Ts, data.Ts):
             raise DataError(f"validation is sampled every Ts = {validation.Ts:g}, data every "
                             f"Ts = {data.Ts:g}; both records must share the sampling period")
@@ -143,6 +146,8 @@ def prepare(estimation: IOData, validation: IOData, options: IdentifyOptions) ->
                           "(time='continuous'): a sampled model takes each input as it is sampled")
     loop, options = loop_method(options)
     p, nmax = estimation.p, options.path_end(estimation.p)
+    grid = default_omega(estimation.Ts, options.filter_grid) if options.omega is None else np.array(options.omega)
+    check_candidates(grid, estimation.Ts)
     projection = first = feedback = None
     if loop == "two-stage":
         if options.delays != 0:
@@ -168,7 +173,6 @@ def prepare(estimation: IOData, validation: IOData, options: IdentifyOptions) ->
     if options.center:
         estimation = estimation.remove_means()
         validation = validation.remove_means(estimation.y_offset, estimation.u_offset)
-    grid = default_omega(estimation.Ts, options.filter_grid) if options.omega is None else np.array(options.omega)
     radius = options.max_radius
     if radius == "auto":
         radius = float(np.exp(-AUTO_RADIUS_SPAN / longest_segment(search_window(estimation, options.search_samples)).N))

@@ -23,13 +23,13 @@ from typing import Sequence
 import numpy as np
 
 from ...data.arguments import integer, period, real_number
-from ...errors import FilterError
+from ...errors import FilterError, OptionError
 from .indices import Indices
 
 __all__ = [
     "needs_real_root",
     "filter_roots", "filter_polynomial", "check_alpha", "divisor", "divisors",
-    "filter_divisors", "filter_rows",
+    "filter_divisors", "filter_rows", "check_candidates",
 ]
 
 # A pair whose imaginary part is below this share of its modulus may stand for two
@@ -40,9 +40,9 @@ _REAL_TOLERANCES = (1e-6, 1e-3, 1e-2, 5e-2)
 
 
 def _check_filter_options(indices: Sequence[int], Ts: float, s: float) -> tuple[int, ...]:
-    indices = tuple(int(v) for v in indices)
-    if not indices or min(indices) < 1:
-        raise FilterError(f"indices must be positive integers, got {indices}")
+    if isinstance(indices, (str, bytes)) or not isinstance(indices, (Sequence, np.ndarray)) or not len(indices):
+        raise FilterError(f"indices must be a non-empty list of positive integers, got {indices!r}")
+    indices = tuple(integer("each of the indices", v, error=FilterError, low=1) for v in indices)
     real_number("the spacing factor s", s, error=FilterError, low=1.0, low_open=True)
     period(Ts, error=FilterError)
     return indices
@@ -58,7 +58,11 @@ def filter_roots(
     indices = _check_filter_options(indices, Ts, s)
     for name, value in (("wc", wc), ("zeta", zeta)):
         real_number(name, value, error=FilterError, low=0.0, low_open=True)
-    return _roots_rows(np.array([[wc, zeta]], float), indices, Ts, s)[0]
+    roots = _roots_rows(np.array([[wc, zeta]], float), indices, Ts, s)[0]
+    if np.max(np.abs(roots)) >= 1.0:
+        raise FilterError(f"wc = {wc:g} with zeta = {zeta:g} is too slow for Ts = {Ts:g}: the filter's roots "
+                          "round to the unit circle; give a larger wc (or zeta)")
+    return roots
 
 
 def _roots_rows(etas: np.ndarray, indices: Indices, Ts: float, s: float) -> np.ndarray:
@@ -83,6 +87,21 @@ def _roots_rows(etas: np.ndarray, indices: Indices, Ts: float, s: float) -> np.n
     if needs_real_root(indices) and nbar % 2 == 0:
         roots[~over, -2:] = np.abs(roots[~over, -1])[:, None]
     return roots
+
+
+def check_candidates(omega: np.ndarray, Ts: float) -> None:
+    """Refuse a candidate ``(wc, zeta)`` of ``omega`` whose pair of roots is not stable once the
+    coefficients of its second-order filter are rounded (roots that round to the unit circle at
+    ``Ts``): the search would take it, and the models built on it would fail where their filter
+    is checked. The pair alone: higher degrees add its powers (``s``), whose clustering is the
+    spacing's choice, not the candidate's."""
+    roots = _roots_rows(np.asarray(omega, float), (2,), Ts, 2.0)
+    for (wc, zeta), row in zip(omega, roots):
+        try:
+            check_alpha(monic_from_roots(row))
+        except FilterError:
+            raise OptionError(f"omega's candidate (wc, zeta) = ({wc:g}, {zeta:g}) is too slow for Ts = {Ts:g}: "
+                              f"its filter's roots round to the unit circle; give it a larger wc") from None
 
 
 def needs_real_root(indices: Indices) -> bool:

@@ -33,6 +33,8 @@ def check_indices(indices: Sequence[int], p: int) -> Indices:
     >>> check_indices([1, 2, 1], 3)
     (1, 2, 1)
     """
+    if isinstance(indices, (str, bytes)):
+        raise StructureError(f"indices must be a list of positive integers, got {indices!r}")
     try:
         values = [int(v) for v in indices]
     except (TypeError, ValueError):

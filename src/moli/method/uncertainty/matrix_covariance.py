@@ -100,6 +100,9 @@ def estimate_covariance(model: StateSpaceModel, data: IOData, first_stage: First
     if model.indices is None or (model.alpha is None and model.divisors is None):
         raise DataError("the covariance needs a MOLI model that carries its indices and filter polynomials "
                         "(from moli.estimate or moli.identify)")
+    if first_stage is not None and not isinstance(first_stage, FirstStage):
+        raise DataError(f"first_stage must be None or the FirstStage of a two-stage closed-loop fit, "
+                        f"got {type(first_stage).__name__}")
     u, y = deviations(model, data)
     if is_refined(model) or first_stage is not None:
         factor, record = refined_covariance(model, data, first_stage)

@@ -75,7 +75,8 @@ def refined_covariance(model: StateSpaceModel, data: IOData,
     Raises
     ------
     DataError
-        The model is unstable (its simulation error has no finite Jacobian).
+        The model is unstable (its simulation error has no finite Jacobian), or the record has
+        no more output values than the problem has unknowns.
     """
     # the refinement's own start at these matrices: the problem, the initial states at
     # their optimum, the simulation and its residual
@@ -89,6 +90,10 @@ def refined_covariance(model: StateSpaceModel, data: IOData,
     if not (np.all(np.isfinite(jac)) and np.all(np.isfinite(residual))):
         raise DataError("the simulation error of the refined model is not finite on the record")
     (N, p), k = data.y.shape, jac.shape[1]
+    if N * p <= k:
+        raise DataError(f"the covariance of the refined model needs more output values than its {k} unknowns "
+                        f"({k - problem.x0_size} parameters and {problem.x0_size} initial-state entries); the "
+                        f"record gives {N} samples of {p} outputs: give the record it was refined on")
     norms = np.linalg.norm(jac, axis=0)
     norms[norms == 0] = 1.0
     # the singular values and right vectors of the record-long matrix are its triangular factor's
