@@ -16,12 +16,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from click.testing import CliRunner, Result
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 import moli
-from moli.app import cli
+from cli_util import assert_clean_error, run
 from moli.app.figures import measured_vs_simulated
 from moli.app.fleet_report import write_summary
 from moli.data import atomic_files
@@ -32,16 +31,6 @@ from moli.errors import DataError, ModelFileError
 CHANNELS = ["--inputs", "u1", "--outputs", "y1"]
 
 
-def run(*args: str) -> Result:
-    return CliRunner().invoke(cli.cli, list(args), prog_name="moli")
-
-
-def assert_clean_error(result: Result, message: str) -> None:
-    """Exit code 2 and one line on stderr naming the problem: no traceback, no progress bar."""
-    assert result.exit_code == 2, result.output + result.stderr
-    lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith("moli: error: "), result.stderr
-    assert message in lines[0], lines[0]
 
 
 def siso(N: int = 300, seed: int = 0, names: tuple[str, str] = ("y1", "u1")) -> moli.IOData:

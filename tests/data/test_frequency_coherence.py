@@ -15,17 +15,17 @@ OMEGA = np.array([1.0, 2.0, 3.0])
 
 
 @pytest.mark.parametrize("keywords, message", [
-    ({"coherence": [0.5, 1.2, 0.5]}, r"coherence must lie in \[0, 1\].*line 1 \(2 rad/s\) has 1.2"),
-    ({"coherence": [0.5, -0.1, 0.5]}, r"coherence must lie in \[0, 1\].*line 1 \(2 rad/s\) has -0.1"),
-    ({"coherence": [0.5, np.nan, 0.5]}, r"coherence has NaN or inf at line 1"),
+    ({"coherence": [0.5, 1.2, 0.5]}, r"coherence must lie in \[0, 1\].*frequency 2 \(from 1; 2 rad/s\) has 1.2"),
+    ({"coherence": [0.5, -0.1, 0.5]}, r"coherence must lie in \[0, 1\].*frequency 2 \(from 1; 2 rad/s\) has -0.1"),
+    ({"coherence": [0.5, np.nan, 0.5]}, r"coherence has NaN or inf at frequency 2 \(from 1"),
     ({"coherence": [0.5, 0.5]}, r"coherence must have shape \(3, 1, 1\) \(like G\) or \(3,\)"),
     ({"coherence": np.full((3, 2, 1), 0.5)}, r"coherence must have shape \(3, 1, 1\)"),
     ({"averages": 4}, "averages turns a coherence into a variance: give it with coherence and without variance"),
     ({"averages": 4, "coherence": [0.5] * 3, "variance": [1.0] * 3}, "give it with coherence and without variance"),
     ({"averages": 0, "coherence": [0.5] * 3}, "averages must be a positive integer"),
     ({"averages": 2.5, "coherence": [0.5] * 3}, "averages must be a positive integer"),
-    ({"averages": 4, "coherence": [0.5, 1.0, 0.5]}, r"coherence 1 at line 1 \(2 rad/s\) gives no variance"),
-    ({"averages": 4, "coherence": [0.0, 0.5, 0.5]}, r"coherence 0 at line 0 \(1 rad/s\) gives no variance"),
+    ({"averages": 4, "coherence": [0.5, 1.0, 0.5]}, r"coherence 1 at frequency 2 \(from 1; 2 rad/s\) gives no variance"),
+    ({"averages": 4, "coherence": [0.0, 0.5, 0.5]}, r"coherence 0 at frequency 1 \(from 1; 1 rad/s\) gives no variance"),
 ])
 def test_bad_coherence_or_averages_is_one_clear_error(keywords, message):
     with pytest.raises(DataError, match=message):
@@ -97,7 +97,7 @@ def test_a_coherence_column_for_some_pairs_only_or_out_of_range_is_refused(tmp_p
         moli.read_frequency_data(_table(tmp_path, ["y1/u1 coh"]))
     path = tmp_path / "bad.csv"
     path.write_text("frequency_hz,y1/u1 re,y1/u1 im,y1/u1 coh\n1,1,0,0.5\n2,1,0,1.5\n")
-    with pytest.raises(DataError, match=r"bad.csv: coherence must lie in \[0, 1\].*line 1"):
+    with pytest.raises(DataError, match=r"bad.csv: coherence must lie in \[0, 1\].*frequency 2 "):
         moli.read_frequency_data(path)
 
 

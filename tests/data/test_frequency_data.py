@@ -43,11 +43,11 @@ def test_lines_picks_lines_with_their_variance():
 
 
 @pytest.mark.parametrize("frequencies, G, keywords, message", [
-    ([1.0, 3.0, 2.0], [1, 1, 1], {}, r"increase strictly: line 2 \(2 rad/s\) does not exceed line 1"),
-    ([1.0, 2.0, 2.0], [1, 1, 1], {}, "increase strictly: line 2"),
-    ([-1.0, 2.0, 3.0], [1, 1, 1], {}, r"zero or positive: line 0 is -1"),
-    ([1.0, np.nan, 3.0], [1, 1, 1], {}, "frequencies must be finite: line 1"),
-    ([1.0, 2.0, 3.0], [1, np.nan, 1], {}, r"NaN or inf at line 1 \(2 rad/s\)"),
+    ([1.0, 3.0, 2.0], [1, 1, 1], {}, r"increase strictly: frequency 3 \(from 1; 2 rad/s\) does not exceed frequency 2"),
+    ([1.0, 2.0, 2.0], [1, 1, 1], {}, "increase strictly: frequency 3"),
+    ([-1.0, 2.0, 3.0], [1, 1, 1], {}, r"zero or positive: frequency 1 \(from 1\) is -1"),
+    ([1.0, np.nan, 3.0], [1, 1, 1], {}, "frequencies must be finite: frequency 2"),
+    ([1.0, 2.0, 3.0], [1, np.nan, 1], {}, r"NaN or inf at frequency 2 \(from 1; 2 rad/s\)"),
     ([1.0, 2.0, 3.0], [1, 1], {}, r"shape \(F, p, m\) with F = 3"),
     ([1.0, 2.0, 3.0], np.ones((3, 2, 2)), {"output_names": ["y1"], "input_names": ["u1", "u2"]},
      "G has 2 outputs and 2 inputs, but the names give 1 outputs and 2 inputs"),

@@ -148,7 +148,8 @@ def test_a_wrong_given_encoding_names_the_byte_and_line(tmp_path):
     ({"delimiter": "."}, "delimiter must be one character"),
     ({"decimal": ";"}, "decimal must be '.' or ','"),
     ({"delimiter": ",", "decimal": ","}, "both ','"),
-    ({"encoding": "klingon"}, "unknown encoding 'klingon'"),
+    ({"encoding": "klingon"}, "unknown text encoding 'klingon'"),
+    ({"encoding": "rot13"}, "unknown text encoding 'rot13'"),       # a codec, but of text to text
     ({"sheet": "Data"}, "sheet applies to .xlsx files, not .csv"),
     ({"time_tolerance": 0.7}, r"time_tolerance must be a number in \[0, 0.5\)"),
     ({"time_column": 3}, "time_column must be a column name"),

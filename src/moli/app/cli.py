@@ -32,7 +32,7 @@ from ..method.search.greedy_path import PathStep, StructureSearch, exhaustive
 from ..models.storage import load_model
 from ..systems.plant import example_data
 from ..validation.comparison import X0_CHOICES, compare
-from .figure_files import save_figure
+from .figure_files import check_figure_suffix, save_figure
 from .figures import measured_vs_simulated
 from .fleet_cli import fleet_commands
 from .fleet_report import SCORES
@@ -332,8 +332,10 @@ def validate(*, model_file: Path, data_files: tuple[Path, ...], inputs: str | No
     DATA must agree with it. Several DATA files are scored together, each simulated
     from its own start.
     """
+    what = "--plot" if plot else "--out"
     plot = plot or (out_dir or run_folder("validate", [path.stem for path in data_files])) / "validation.png"
-    check_output_file(plot, "--plot", [model_file, *data_files])
+    check_output_file(plot, what, [model_file, *data_files])
+    check_figure_suffix(plot, what)
     refuse_overwrite([plot], force)
     model = load_model(model_file)
     data = read_records(data_files, names(inputs) or list(model.input_names),

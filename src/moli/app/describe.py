@@ -52,9 +52,10 @@ def describe(model: LinearModel) -> str:
         lines += _continuous_poles(model)
     else:
         lines += _sampled_structure(model)
-    data = model.info.get("data", {})
-    if "sha256" in data:
-        lines.append(f"estimated on {console_text(data.get('source', '?'))}: {data['N']} samples, "
+    data = model.info.get("data")
+    # a file edited or written elsewhere may hold anything there: described only as moli writes it
+    if isinstance(data, dict) and isinstance(data.get("sha256"), str) and isinstance(data.get("N"), int):
+        lines.append(f"estimated on {console_text(str(data.get('source', '?')))}: {data['N']} samples, "
                      f"sha256 {data['sha256'][:16]}...")
     return "\n".join(lines)
 

@@ -16,11 +16,20 @@ from matplotlib.figure import Figure
 from matplotlib.image import imsave
 
 from ..data.atomic_files import write_atomic
+from ..errors import MoliError
 from .figure_ticks import plain_log_labels, trim_ticks, unlabelled_minor_ticks_as_lines, unplaced_empty_labels
 
-__all__ = ["DPI", "save_figure"]
+__all__ = ["DPI", "save_figure", "check_figure_suffix"]
 
 DPI = 110  # a 7.5-inch figure some 800 pixels wide
+
+
+def check_figure_suffix(path: Path, what: str) -> None:
+    """Refuse, before any work, a figure file whose suffix names no format matplotlib writes."""
+    formats = FigureCanvasAgg.get_supported_filetypes()
+    if path.suffix and path.suffix[1:].lower() not in formats:
+        raise MoliError(f"{what}: {path.name} names no figure format moli writes; give one of "
+                        f"{', '.join('.' + name for name in sorted(formats))}")
 
 
 def save_figure(fig: Figure, path: Path) -> bytes:

@@ -33,6 +33,8 @@ def options_from_flags(options_file: Path | None, preset: str | None, *, runs_ke
         content = json.loads(Path(options_file).read_text())
     except FileNotFoundError:
         raise OptionError(f"--options: no file at {options_file}") from None
+    except OSError as exc:                       # a folder, no permission
+        raise OptionError(f"--options: cannot read {options_file}: {exc.strerror or exc}") from None
     except (ValueError, RecursionError) as exc:  # bad JSON or UTF-8, too deep, integers too long
         raise OptionError(f"--options: {options_file} is not a JSON file: {exc}") from None
     if isinstance(content, dict) and content.get("format") == "moli-model":

@@ -11,6 +11,7 @@ scheduled job notices; bad arguments end with ``moli: error: ...`` and code 2.
 from __future__ import annotations
 
 import glob
+import math
 from pathlib import Path
 from typing import Any, Callable
 
@@ -20,7 +21,9 @@ import numpy as np
 from ..data.atomic_files import check_output_folder
 from ..data.display import console_text
 from ..data.files import read_data
+from ..data.tables import check_request
 from ..errors import DataError, MoliError, OptionError
+from ..fleets.backends import MAX_TIMEOUT
 from ..fleets.records import identify_many
 from ..method.options import PRESETS, IdentifyOptions
 from ..method.options.choices import KERNELS, METHODS
@@ -81,7 +84,7 @@ def _client(address: str) -> Any:
         raise OptionError("--scheduler needs Dask: pip install 'moli[distributed]'") from None
     try:
         return Client(address, timeout="20s")
-    except (OSError, TimeoutError) as exc:
+    except (OSError, TimeoutError, ValueError) as exc:      # ValueError: no address (no port, say)
         raise OptionError(f"--scheduler: cannot reach {address}: {exc}") from None
 
 
@@ -123,7 +126,7 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
     @click.option("--force", is_flag=True, help="Overwrite model files and a summary already in --out.")
     @click.option("--resume", is_flag=True,
                   help="Keep the models in --out made with these options from these very files; identify the rest.")
-    @click.option("--timeout", type=click.FloatRange(min=0, min_open=True), metavar="SECONDS",
+    @click.option("--timeout", type=click.FloatRange(min=0, min_open=True, max=MAX_TIMEOUT), metavar="SECONDS",
                   help="End a record that runs longer (its worker process with it) and list it as timed out.")
     def fit_many(*, patterns: tuple[str, ...], inputs: str, outputs: str, ts: float | None,
                  workers: int | None, scheduler: str | None, options_file: Path | None,
@@ -153,6 +156,7 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
         if not resume:
             refuse_overwrite([out_dir / name for name in written], force)
         read = {"inputs": names(inputs), "outputs": names(outputs), "Ts": ts}
+        check_request(read["inputs"], read["outputs"], ts, None, None, 0.0)   # as moli fit does, before any work
         summary = FleetSummary(sources, out_dir)
         for name, source in sources.items():
             sha256 = summary.sha256(name)  # each file's as the run starts, the one its model records
@@ -161,10 +165,10 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
                 summary.rows[name] = {**kept, "source": str(source)}
             elif redo is not None:
                 click.echo(f"  redone: {console_text(name)}: {console_text(redo)}", err=True)
+        executor = None if scheduler is None else _client(scheduler)    # a bad address, before anything is written
         out_dir.mkdir(parents=True, exist_ok=True)
         summary.write()
         to_run = {name: str(source) for name, source in sources.items() if name not in summary.rows}
-        executor = None if scheduler is None else _client(scheduler)
         try:
             fleet = identify_many(to_run, options, executor=executor, n_jobs=workers, read_options=read,
                                   timeout=timeout, on_entry=lambda entry: summary.add(entry, read)) \
@@ -211,6 +215,8 @@ def fleet_commands(options_from_flags: Callable[..., IdentifyOptions]) -> list[c
         its mean NRMSE fit fell by more than --max-drop points from the fit saved
         by fit-many.
         """
+        if not math.isfinite(max_drop):
+            raise OptionError(f"--max-drop must be a finite number of points, got {max_drop}")
         if not models_dir.is_dir():
             raise DataError(f"no folder of models at {models_dir}")
         models = {path.stem: path for path in sorted(models_dir.glob("*.json"))}

@@ -60,13 +60,21 @@ def flag(name: str, value: object, *, error: type[MoliError] = DataError) -> boo
     return bool(value)
 
 
+# The sampling periods moli takes: any clock's, in any time unit, with room to spare; beyond them a
+# filter's cutoffs (about 1 / Ts) or their powers leave the floating-point range
+PERIOD_RANGE = (1e-100, 1e100)
+
+
 def period(value: object, *, error: type[MoliError] = DataError, name: str = "Ts") -> float:
-    """A sampling period: a positive finite number."""
+    """A sampling period: a positive finite number within :data:`PERIOD_RANGE`."""
     value = _scalar(value)
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, Real):
         raise wrong_type(error)(f"{name} must be a positive finite number, got {value!r}")
     if not (np.isfinite(value) and value > 0):
         raise error(f"{name} must be a positive finite number, got {value!r}")
+    if not PERIOD_RANGE[0] <= value <= PERIOD_RANGE[1]:
+        raise error(f"{name} = {value!r} lies outside {PERIOD_RANGE[0]:g} .. {PERIOD_RANGE[1]:g}: give the "
+                    "period in another time unit")
     return float(value)
 
 

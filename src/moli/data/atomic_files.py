@@ -79,6 +79,8 @@ def atomic_file(path: str | os.PathLike[str], mode: str = "w", encoding: str | N
     if mode not in ("w", "wb"):
         raise ValueError(f"mode must be 'w' or 'wb', got {mode!r}")
     target = Path(path)
+    if _special(target):        # the file would replace it: /dev/null gone, for one
+        raise OSError(f"{target} is a device, a pipe or a socket, not a file to write")
     folder = os.path.abspath(target.parent)
     if folder not in _SWEPT:
         remove_leftovers(folder)
@@ -193,6 +195,11 @@ def write_json(path: object, record: dict, what: str) -> None:
         raise ModelFileError(f"cannot write {what} to {path}: {exc.strerror or exc}") from None
 
 
+def _special(path: Path) -> bool:
+    """Whether ``path`` is there and is neither a regular file nor a folder."""
+    return path.exists() and not (path.is_file() or path.is_dir())
+
+
 def _same_file(path: Path, other: Path) -> bool:
     try:
         return path.exists() and other.exists() and os.path.samefile(path, other)
@@ -232,6 +239,9 @@ def check_output_file(path: str | os.PathLike[str], what: str,
 def _not_an_input(target: Path, what: str, inputs: Iterable[str | os.PathLike[str]]) -> Path:
     if target.is_dir():
         raise MoliError(f"{what}: {target} is a folder; give a file name")
+    if _special(target):
+        raise MoliError(f"{what}: {target} is a device, a pipe or a socket, which writing a file in its place "
+                        "would destroy; give a file name")
     for source in inputs:
         if _same_file(target, Path(source)):
             raise MoliError(f"{what}: {target} is an input of this run; writing it would destroy it")

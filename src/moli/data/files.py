@@ -147,7 +147,7 @@ def read_data(
         raise OptionError(f"sheet applies to .xlsx files, not {suffix}")
     chosen = check_sheet(sheet)
     if not path.is_file():
-        raise DataError(f"no data file at {path}")
+        raise DataError(f"{path} is a folder, not a data file" if path.is_dir() else f"no data file at {path}")
     def needed(names: list[str]) -> set[str] | None:
         return needed_columns(request, names)
 

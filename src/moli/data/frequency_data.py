@@ -26,15 +26,15 @@ def _frequencies(frequencies: object, unit: object) -> np.ndarray:
         raise DataError("frequencies must hold at least one line, got none")
     bad = np.flatnonzero(~np.isfinite(values))
     if bad.size:
-        raise DataError(f"frequencies must be finite: line {bad[0]} is {values[bad[0]]!r}")
+        raise DataError(f"frequencies must be finite: frequency {bad[0] + 1} (from 1) is {values[bad[0]]!r}")
     negative = np.flatnonzero(values < 0)
     if negative.size:
-        raise DataError(f"frequencies must be zero or positive: line {negative[0]} is {values[negative[0]]:g} {unit}")
+        raise DataError(f"frequencies must be zero or positive: frequency {negative[0] + 1} (from 1) is {values[negative[0]]:g} {unit}")
     steps = np.flatnonzero(np.diff(values) <= 0)
     if steps.size:
         k = steps[0]
-        raise DataError(f"frequencies must increase strictly: line {k + 1} ({values[k + 1]:g} {unit}) does not "
-                        f"exceed line {k} ({values[k]:g} {unit}); sort the lines and drop repeated ones")
+        raise DataError(f"frequencies must increase strictly: frequency {k + 2} (from 1; {values[k + 1]:g} {unit}) does not "
+                        f"exceed frequency {k + 1} ({values[k]:g} {unit}); sort the lines and drop repeated ones")
     return values * (2 * np.pi if unit == "Hz" else 1.0)
 
 
@@ -127,7 +127,7 @@ class FrequencyData:
         p, m = response.shape[1:]
         bad = _first_bad_line(response)
         if bad is not None:
-            raise DataError(f"G has NaN or inf at line {bad} ({omega[bad]:g} rad/s): drop the line or "
+            raise DataError(f"G has NaN or inf at frequency {bad + 1} (from 1; {omega[bad]:g} rad/s): drop the line or "
                             "fill it before building FrequencyData")
         self.Ts = None if Ts is None else period(Ts)
         if self.Ts is not None and omega[-1] > np.pi / self.Ts * (1 + NYQUIST_SLACK):
@@ -170,7 +170,7 @@ class FrequencyData:
             raise DataError(f"{name} must have shape {self._G.shape} (like G) or ({self.F},), got {values.shape}")
         bad = _first_bad_line(values)
         if bad is not None:
-            raise DataError(f"{name} has NaN or inf at line {bad} ({self._omega[bad]:g} rad/s)")
+            raise DataError(f"{name} has NaN or inf at frequency {bad + 1} (from 1; {self._omega[bad]:g} rad/s)")
         return values
 
     def _checked_coherence(self, coherence: object) -> np.ndarray:
@@ -179,8 +179,8 @@ class FrequencyData:
         if outside.size:
             k = outside[0]
             worst = values[k].min() if values[k].min() < 0 else values[k].max()
-            raise DataError(f"coherence must lie in [0, 1] (the magnitude-squared coherence): line {k} "
-                            f"({self._omega[k]:g} rad/s) has {worst:g}")
+            raise DataError(f"coherence must lie in [0, 1] (the magnitude-squared coherence): frequency {k + 1} "
+                            f"(from 1; {self._omega[k]:g} rad/s) has {worst:g}")
         return values
 
     def _variance_from_coherence(self) -> np.ndarray:
@@ -191,7 +191,7 @@ class FrequencyData:
         if edge.size:
             k = edge[0]
             raise DataError(f"coherence {coherence[k].min() if coherence[k].min() <= 0 else coherence[k].max():g} "
-                            f"at line {k} ({self._omega[k]:g} rad/s) gives no variance (0 or infinite): drop the "
+                            f"at frequency {k + 1} (from 1; {self._omega[k]:g} rad/s) gives no variance (0 or infinite): drop the "
                             "line, or give variance instead of averages")
         return (1.0 - coherence) * np.abs(self._G) ** 2 / (self.averages * coherence)
 

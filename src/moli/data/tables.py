@@ -73,12 +73,13 @@ class Request:
 def _names(value: object, what: str) -> tuple[str, ...] | None:
     if value is None:
         return None
-    accepted = f"{what} must be a sequence of column names such as ['{what[0]}1', '{what[0]}2']"
+    example = {"inputs": "u1", "outputs": "y1"}.get(what, "c1")
+    accepted = f"{what} must be a sequence of column names such as ['{example}']"
     if isinstance(value, str) or not hasattr(value, "__iter__"):
         raise DataError(f"{accepted}, got {value!r}")
     names = tuple(value)  # type: ignore[arg-type]
-    if not names or not all(isinstance(name, str) for name in names):
-        raise DataError(f"{accepted}, got {value!r}")
+    if not names or not all(isinstance(name, str) for name in names) or len(set(names)) < len(names):
+        raise DataError(f"{accepted}, each named once, got {value!r}")
     return names
 
 
@@ -215,7 +216,7 @@ def _seconds(table: Table, name: str, time_format: str | None) -> tuple[np.ndarr
     # numbers that turn into text part way: report the first cell that is not a number;
     # text from the first cell on: the first that is not a date
     k = bad if bad is not None and bad != first else bad_stamp
-    expected = (f"a time in the format {time_format!r}" if time_format else
+    expected = (f"not a time in the format {time_format!r}" if time_format else
                 "neither a number nor an ISO 8601 time stamp such as 2024-05-01T12:00:00.5")
     raise DataError(
         f"{table.source}, {table.row(k)}, column {name!r}: {_shown(values[k])} is {expected}; "

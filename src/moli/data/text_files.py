@@ -78,10 +78,8 @@ def check_text_options(delimiter: object, decimal: object, encoding: object) -> 
             delimiter.lower() in DELIMITER_NAMES
             or len(delimiter) == 1 and not delimiter.isalnum() and delimiter not in '."'
         ):
-            raise OptionError(
-                f"delimiter must be one character such as ',' ';' '|' or a tab, or one of "
-                f"{', '.join(DELIMITER_NAMES)}; got {delimiter!r}"
-            )
+            raise OptionError(f"delimiter must be one character such as ',' ';' '|' or a tab, or one of "
+                              f"{', '.join(DELIMITER_NAMES)}; got {delimiter!r}")
         delimiter = DELIMITER_NAMES.get(delimiter.lower(), delimiter)
     if decimal is not None and decimal not in DECIMALS:
         raise OptionError(f"decimal must be '.' or ',', got {decimal!r}")
@@ -89,10 +87,12 @@ def check_text_options(delimiter: object, decimal: object, encoding: object) -> 
         raise OptionError(f"the delimiter and the decimal mark are both {decimal!r}")
     if encoding is not None:
         try:
-            encoding = codecs.lookup(str(encoding)).name
+            codec = codecs.lookup(str(encoding))
         except LookupError:
-            raise OptionError(f"unknown encoding {encoding!r}; e.g. utf-8, utf-16, latin-1, "
-                              "cp1252") from None
+            codec = None
+        if codec is None or not getattr(codec, "_is_text_encoding", True):   # rot13, base64: no text file's
+            raise OptionError(f"unknown text encoding {encoding!r}; e.g. utf-8, utf-16, latin-1, cp1252")
+        encoding = codec.name
     return delimiter, decimal, encoding  # type: ignore[return-value]
 
 
@@ -187,10 +187,8 @@ def _undecodable(path: Path, encoding: str, given: bool) -> DataError:
             lines += block.count(b"\n")
     how = "" if given else " (detected)"
     shown = f"byte 0x{bad:02x}" if bad is not None else "its last bytes, a character cut short,"
-    return DataError(
-        f"{path} is not {encoding}{how} text: {shown} on line {lines} does not decode; give the "
-        "file's encoding (encoding= or --encoding), e.g. utf-8, utf-16, cp1252"
-    )
+    return DataError(f"{path} is not {encoding}{how} text: {shown} on line {lines} does not decode; give the "
+                     "file's encoding (encoding= or --encoding), e.g. utf-8, utf-16, cp1252")
 
 
 def _scan(path: Path) -> int | None:
@@ -254,6 +252,8 @@ def _head_text(head: bytes, encoding: str, path: Path, given: bool) -> str:
         text = codecs.getincrementaldecoder(encoding)().decode(head)
     except UnicodeDecodeError:
         raise _undecodable(path, encoding, given) from None
+    except UnicodeError as exc:           # utf-16 and utf-32 of a file without a byte-order mark
+        raise DataError(f"{path} cannot be read as {encoding}: {exc}; give the byte order (e.g. utf-16-le)") from None
     bad = CONTROL.search(text)
     if bad:
         line = text.count("\n", 0, bad.start()) + 1

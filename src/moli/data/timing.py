@@ -13,6 +13,7 @@ from typing import Callable
 
 import numpy as np
 
+from .arguments import period
 from .cells import optional
 from ..errors import DataError, IrregularSamplingWarning, OptionError
 
@@ -65,10 +66,9 @@ class SamplingGap:
 
 
 def check_period(Ts: object) -> float:
-    """``Ts`` as a positive finite float, or an error saying what is accepted."""
-    if isinstance(Ts, bool) or not isinstance(Ts, Real) or not (np.isfinite(Ts) and Ts > 0):
-        raise DataError(f"Ts must be a positive finite number, got {Ts!r}")
-    return float(Ts)
+    """``Ts`` as a positive finite float in :data:`moli.data.arguments.PERIOD_RANGE`, or an error
+    saying what is accepted."""
+    return period(Ts)
 
 
 def check_tolerance(tolerance: object) -> float:

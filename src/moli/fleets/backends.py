@@ -18,12 +18,15 @@ from .dask_workers import quiet_workers
 from .local_workers import LostWorkerError, RecordTimeoutError, worker_processes
 
 __all__ = ["usable_cpus", "run_calls", "dask_completed", "NoWorkersError", "LostWorkerError",
-           "RecordTimeoutError", "NO_WORKER_TIMEOUT"]
+           "RecordTimeoutError", "NO_WORKER_TIMEOUT", "MAX_TIMEOUT"]
 
 Done = Iterator[tuple[int, Any, "BaseException | None"]]
 # Seconds a Dask cluster may have no worker at all before the calls still pending fail:
 # long enough for an autoscaler to bring up a replacement, short enough to end a run.
 NO_WORKER_TIMEOUT = 60.0
+# The longest per-record timeout: the waits below count milliseconds in 32 bits (2^31 ms is 24.8
+# days), and a longer one is no limit at all
+MAX_TIMEOUT = 2_000_000.0
 # How often the pending Dask futures and the cluster's workers are looked at.
 POLL_SECONDS = 0.2
 
@@ -95,8 +98,9 @@ def run_calls(
         raise OptionError("executor must be None, a dask.distributed.Client, a concurrent.futures.Executor "
                           f"or the name of a joblib backend, got {type(executor).__name__}")
     if timeout is not None:
-        if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not timeout > 0:
-            raise OptionError(f"timeout must be a positive number of seconds, got {timeout!r}")
+        if isinstance(timeout, bool) or not isinstance(timeout, (int, float)) or not 0 < timeout <= MAX_TIMEOUT:
+            raise OptionError(f"timeout must be a positive number of seconds, at most {MAX_TIMEOUT:.0f} (23 days; "
+                              f"leave it out for no limit), got {timeout!r}")
         if executor is not None:
             # a Dask worker's thread or a pool's process cannot be ended for one call alone
             raise OptionError("timeout ends the worker process of a call that runs too long: it needs "

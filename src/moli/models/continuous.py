@@ -180,9 +180,10 @@ class ContinuousModel(Dimensions):
             start = real_array("x0", x0, finite=False).reshape(-1)
             if start.shape != (self.n,) or not np.all(np.isfinite(start)):
                 raise DataError(f"x0 must be {self.n} finite numbers, got shape {np.shape(x0)}")
-        states = propagate(self.A, self.B, stamps - stamps[0], inputs[:, :, None],
-                           np.full((self.m, 1), hold == "foh"), None if start is None else start[:, None])[:, :, 0]
-        return states @ self.C.T + inputs @ self.D.T
+        with np.errstate(over="ignore", invalid="ignore"):      # an unstable model diverges, as a sampled one
+            states = propagate(self.A, self.B, stamps - stamps[0], inputs[:, :, None],
+                               np.full((self.m, 1), hold == "foh"), None if start is None else start[:, None])[:, :, 0]
+            return states @ self.C.T + inputs @ self.D.T
 
     def simulate_at(self, u: np.ndarray, t: np.ndarray, x0: np.ndarray | None = None) -> np.ndarray:
         """Outputs of one segment of a record: input deviations ``u`` (N, m) at its stamps ``t`` (N,).

@@ -60,6 +60,9 @@ def correlation_time(series: np.ndarray) -> float:
     if np.ptp(series) == 0:                     # a constant: nothing correlated (np.mean may round)
         return 1.0
     x = series - np.mean(series)
+    largest = np.max(np.abs(x))
+    if largest > 1e150:       # squares would overflow (the shares of a constant output); rho is scale-free
+        x = x / largest
     n = x.size
     spectrum = np.fft.rfft(x, 2 * n)
     covariance = np.fft.irfft(spectrum * spectrum.conj(), 2 * n)[:n]
@@ -79,8 +82,9 @@ def paired_difference(shares: np.ndarray, reference: np.ndarray, z: float) -> tu
     threshold of the same one-sided t level at their degrees of freedom. A loss above the
     margin is significant, one below it is not.
     """
-    # a diverging model: an infinite loss and no spread (inf - inf where both diverge)
-    with np.errstate(invalid="ignore"):
+    # a diverging model: an infinite loss and no spread (inf - inf where both diverge); the shares of
+    # a constant output, scaled by its zero variance's floor, square to infinity: no spread either
+    with np.errstate(invalid="ignore", over="ignore"):
         differences = shares - reference
         count = PAIRED_BATCHES
         if np.all(np.isfinite(differences)):
