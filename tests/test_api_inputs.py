@@ -162,3 +162,11 @@ def test_saving_a_model_says_what_cannot_be_written(tmp_path):
 def test_indices_must_match_the_model():
     with pytest.raises(moli.DataError, match="summing to the order"):
         moli.StateSpaceModel(np.eye(2) * 0.5, np.ones((2, 1)), np.ones((1, 2)), indices=[5])
+
+
+def test_kernel_orders_that_stop_below_the_nmax_asked_for_say_so(records):
+    # the 40-lag impulse response's Hankel matrix gives at most 60 states: nmax=1000 was cut silently
+    with pytest.warns(moli.OrderBoundWarning, match="below nmax = 1000"):
+        moli.identify_kernel(*records, nmax=1000)
+    with pytest.warns(moli.OrderBoundWarning, match="below nmax = 1000"):
+        moli.identify_kernel_arx(*records, nmax=1000)

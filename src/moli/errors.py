@@ -89,7 +89,8 @@ class OrderBoundWarning(UserWarning):
     the validation data clearly better (two paired standard errors) than every lower order,
     and the search's next order, where the record allows one, fits clearly better than both
     the bound's least squares and the model returned (refined as that model was): a higher
-    order may fit better still."""
+    order may fit better still. The kernel methods also raise it where their orders stop below
+    the ``nmax`` asked for (the realization has no more states to give)."""
 
 
 class ShortValidationWarning(UserWarning):

@@ -24,7 +24,7 @@ from ...errors import DataError
 from ...models.statespace import StateSpaceModel
 from .arx import RegularizedArx, regularized_arx
 from .balanced import balancing
-from .validated_orders import KernelStep, checked_records, order_bound, order_table, validated_orders
+from .validated_orders import KernelStep, checked_records, order_bound, order_table, validated_orders, warn_order_cap
 
 __all__ = ["KernelArxResult", "identify_kernel_arx"]
 
@@ -97,6 +97,7 @@ def identify_kernel_arx(data: IOData, validation: IOData | None = None, *, kerne
     A, B, C, D = arx.state_space()
     balanced = balancing(A, B, C)
     top = max(balanced.unstable, min(last, balanced.largest_order))
+    warn_order_cap(nmax, top, f"the balanced ARX model keeps {balanced.largest_order} states")
     orders = range(max(1, balanced.unstable), top + 1)
     if not orders:
         raise DataError("the regularized ARX model has no response to the inputs (all its Hankel singular "

@@ -19,7 +19,7 @@ from ...data.iodata import IOData
 from ...models.statespace import StateSpaceModel
 from .impulse import ImpulseResponse, impulse_response
 from .realization import hankel_blocks, hankel_realization, realization_covariance
-from .validated_orders import KernelStep, checked_records, order_bound, order_table, validated_orders
+from .validated_orders import KernelStep, checked_records, order_bound, order_table, validated_orders, warn_order_cap
 
 __all__ = ["KernelResult", "identify_kernel"]
 
@@ -88,6 +88,8 @@ def identify_kernel(data: IOData, validation: IOData | None = None, *, kernel: s
     markov = fit.coefficients[int(feedthrough):]
     rows, cols = hankel_blocks(markov.shape[0])
     top = min(last, rows * data.p, cols * data.m)
+    warn_order_cap(nmax, top, f"the Hankel matrix of the impulse response's {markov.shape[0]} lags has no more "
+                              "independent rows or columns; give a longer length= or record")
     D = fit.coefficients[0] if feedthrough else np.zeros((data.p, data.m))
     # the operating point the fit removed
     means = (estimation.y.mean(axis=0), estimation.u.mean(axis=0)) if center else (None, None)

@@ -15,7 +15,7 @@ import numpy as np
 
 from ...data.arguments import check_channel_order
 from ...data.iodata import IOData
-from ...errors import DataError, OptionError
+from ...errors import DataError, OptionError, OrderBoundWarning
 from ...models.statespace import StateSpaceModel
 from ...validation.comparison import X0_CHOICES, compare, same_period
 from ..search.greedy_path import ScoredStep
@@ -60,6 +60,12 @@ def order_bound(nmax: object, p: int) -> int:
     if nmax is not None and (isinstance(nmax, bool) or not isinstance(nmax, (int, np.integer)) or nmax < 1):
         raise OptionError(f"nmax must be a positive integer, got {nmax!r}")
     return int(nmax) if nmax is not None else max(10, p + 4)
+
+
+def warn_order_cap(nmax: object, top: int, why: str) -> None:
+    """Say so where a kernel method's orders stop below the ``nmax`` its caller gave."""
+    if nmax is not None and top < int(nmax):  # type: ignore[call-overload]
+        warnings.warn(f"the orders tried stop at {top}, below nmax = {nmax}: {why}", OrderBoundWarning, stacklevel=3)
 
 
 def validated_orders(models: Iterable[tuple[int, StateSpaceModel]], validation: IOData,
