@@ -245,6 +245,25 @@ def test_a_workbook_reads_as_its_csv(tmp_path):
         moli.read_frequency_data(tmp_path / "broken.xlsx")
 
 
+def test_tab_semicolon_decimal_comma_and_parquet_tables_read_as_their_csv(tmp_path):
+    # the separator and the decimal mark are found as read_data finds them: a tab-separated file
+    # said its frequency column was missing, and a Parquet file was read as text
+    import pandas as pd
+
+    csv = _table(tmp_path, ["y1/u1 sd", "y2/u1 sd"])
+    frame = pd.read_csv(csv)
+    frame.to_csv(tmp_path / "frf.tsv", sep="\t", index=False)
+    frame.to_csv(tmp_path / "semicolon.csv", sep=";", decimal=",", index=False)
+    frame.to_parquet(tmp_path / "frf.parquet")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", moli.FrequencyConventionWarning)
+        expected = moli.read_frequency_data(csv)
+        for name in ("frf.tsv", "semicolon.csv", "frf.parquet"):
+            data = moli.read_frequency_data(tmp_path / name)
+            np.testing.assert_array_equal(data.G, expected.G)
+            np.testing.assert_array_equal(data.variance, expected.variance)
+
+
 def _response(hz):
     """A 2-output, 1-input continuous response at ``hz``: 1 / (s + 1) and 2 / (s + 4)."""
     s = 2j * np.pi * hz

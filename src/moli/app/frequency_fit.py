@@ -140,7 +140,7 @@ def fit_frequency(ctx: click.Context, options_from_flags: Callable[..., Identify
     delimiter = flags["delimiter"]
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", FrequencyConventionWarning)
-        data = read_frequency_data(path, Ts=flags["ts"], sep=DELIMITER_WORDS.get(delimiter, delimiter or ","),
+        data = read_frequency_data(path, Ts=flags["ts"], sep=DELIMITER_WORDS.get(delimiter, delimiter),
                                    averages=flags["averages"])
     noted.add([w for w in caught if issubclass(w.category, FrequencyConventionWarning)])
     data = selected_channels(data, names(flags["inputs"]), names(flags["outputs"]), str(path))

@@ -20,6 +20,7 @@ A ``.mat`` file holds the arrays themselves: ``G`` of shape (F, p, m) with ``fre
 
 from __future__ import annotations
 
+import itertools
 import re
 import warnings
 import zipfile
@@ -29,6 +30,7 @@ import numpy as np
 
 from ..errors import DataError, FrequencyConventionWarning
 from .frequency_data import FrequencyData
+from .text_files import SNIFF_LINES, sniff_decimal, sniff_delimiter
 
 __all__ = ["read_frequency_data", "FREQUENCY_COLUMNS", "CONVENTIONS", "MAT_VARIABLES"]
 
@@ -187,10 +189,19 @@ def _read_mat(path: str | Path, source: str, Ts: float | None, averages: int | N
     return data, how
 
 
-def read_frequency_data(path: str | Path, *, Ts: float | None = None, sep: str = ",",
+def _sniffed_format(path: Path, sep: str | None) -> tuple[str, str]:
+    """The separator that splits the table's first lines alike, where none is given, and the
+    decimal mark of their numbers (:mod:`moli.data.text_files`' sniffing, as ``read_data`` has it)."""
+    with path.open(encoding="utf-8", errors="replace") as handle:
+        lines = [line.rstrip("\r\n") for line in itertools.islice(handle, SNIFF_LINES) if line.strip()]
+    separator = sep or (sniff_delimiter(lines) if lines else ",")
+    return separator, sniff_decimal(lines[1:], separator)
+
+
+def read_frequency_data(path: str | Path, *, Ts: float | None = None, sep: str | None = None,
                         averages: int | None = None) -> FrequencyData:
-    """Read a table of frequency responses (CSV, or the first sheet of an ``.xlsx`` workbook)
-    into :class:`FrequencyData`.
+    """Read a table of frequency responses (a text table, the first sheet of an ``.xlsx``
+    workbook, or a Parquet file) into :class:`FrequencyData`.
 
     Parameters
     ----------
@@ -200,8 +211,9 @@ def read_frequency_data(path: str | Path, *, Ts: float | None = None, sep: str =
     Ts : float, optional
         Sampling period when the responses are those of a discrete-time system; None:
         continuous time.
-    sep : str, default ","
-        The column separator of a CSV table.
+    sep : str, optional
+        The column separator of a text table; by default the one that splits its first lines
+        alike (tab, semicolon, comma, bar, else white space), as :func:`moli.read_data` finds it.
     averages : int, optional
         The spectra averaged per line behind the ``coh`` columns: the variance then follows
         from the coherence (:class:`FrequencyData`); only with coherence and no ``var``/``sd``.
@@ -250,10 +262,14 @@ def read_frequency_data(path: str | Path, *, Ts: float | None = None, sep: str =
             f"{'continuous time' if Ts is None else f'discrete time, Ts = {Ts:g}'}"), stacklevel=2)
         return data
     try:
-        if Path(path).suffix.lower() == ".xlsx":
+        suffix = Path(path).suffix.lower()
+        if suffix == ".xlsx":
             frame = pd.read_excel(path, sheet_name=0, engine="openpyxl")
+        elif suffix == ".parquet":
+            frame = pd.read_parquet(path)
         else:
-            frame = pd.read_csv(path, sep=sep)
+            separator, decimal = _sniffed_format(Path(path), sep)
+            frame = pd.read_csv(path, sep=separator, decimal=decimal, engine="python" if len(separator) > 1 else "c")
     except (pd.errors.ParserError, UnicodeDecodeError, ValueError, OSError, zipfile.BadZipFile) as exc:
         raise DataError(f"{source}: not a readable table: {exc}") from None
     columns = [str(c) for c in frame.columns]
