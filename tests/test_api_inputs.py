@@ -170,3 +170,9 @@ def test_kernel_orders_that_stop_below_the_nmax_asked_for_say_so(records):
         moli.identify_kernel(*records, nmax=1000)
     with pytest.warns(moli.OrderBoundWarning, match="below nmax = 1000"):
         moli.identify_kernel_arx(*records, nmax=1000)
+
+
+def test_a_duplicated_input_is_called_collinear_not_unexcited():
+    record = moli.example_data(N=400, seed=3)
+    doubled = moli.IOData(record.y, np.column_stack([record.u, record.u[:, 1]]))
+    assert [issue.kind for issue in moli.check_data(doubled, nmax=6)] == ["collinear"]

@@ -251,8 +251,10 @@ def check_data(data: IOData, nmax: int | None = None) -> list[QualityIssue]:
                 f"output {name!r} is constant: its model will be a constant; check the sensor "
                 "or remove the output",
             ))
-    issues += _collinear(data, ~dead_u)
-    if nmax is not None and not dead_u.all():
+    collinear = _collinear(data, ~dead_u)
+    issues += collinear
+    # collinear inputs excite no lag together: that issue is theirs, said above, not the excitation's
+    if nmax is not None and not dead_u.all() and not collinear:
         needed = math.ceil(nmax / data.p) + 1
         order = _excitation_order(data.u[:, ~dead_u], needed, data.bounds)
         if order < needed:
