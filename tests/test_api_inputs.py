@@ -176,3 +176,11 @@ def test_a_duplicated_input_is_called_collinear_not_unexcited():
     record = moli.example_data(N=400, seed=3)
     doubled = moli.IOData(record.y, np.column_stack([record.u, record.u[:, 1]]))
     assert [issue.kind for issue in moli.check_data(doubled, nmax=6)] == ["collinear"]
+
+
+def test_identify_warns_that_a_sampled_model_takes_uneven_stamps_as_even():
+    record = moli.example_data(N=400, seed=3)
+    stamps = np.arange(400.0)
+    stamps[200:] += 2.0                  # one step of 3 Ts: the model would take it as one
+    with pytest.warns(moli.IrregularSamplingWarning, match="1 step of the record's time stamps differ"):
+        moli.identify(moli.IOData(record.y, record.u, times=stamps), nmax=3)

@@ -9,15 +9,16 @@ them without importing anything back.
 
 from __future__ import annotations
 
+import warnings
 from typing import Sequence
 
 import numpy as np
 
-from ..errors import DataError
+from ..errors import DataError, IrregularSamplingWarning
 from .arguments import real_array
 from .timing import TIME_TOLERANCE
 
-__all__ = ["UNSTATED_PERIOD", "check_times", "median_step", "irregular_steps", "joined_times"]
+__all__ = ["UNSTATED_PERIOD", "check_times", "median_step", "irregular_steps", "warn_uneven", "joined_times"]
 
 
 class _UnstatedPeriod(float):
@@ -92,6 +93,16 @@ def median_step(times: np.ndarray, starts: tuple[int, ...]) -> float:
 def irregular_steps(times: np.ndarray, starts: tuple[int, ...], Ts: float) -> int:
     """How many steps within segments differ from ``Ts`` by more than the readers' tolerance."""
     return int(np.count_nonzero(np.abs(_steps_inside(times, starts) - Ts) > TIME_TOLERANCE * Ts))
+
+
+def warn_uneven(times: np.ndarray | None, starts: tuple[int, ...], Ts: float, stacklevel: int) -> None:
+    """Warn where a sampled-time model is to take stamps that step unevenly as evenly spaced."""
+    count = 0 if times is None else irregular_steps(times, starts, Ts)
+    if count:
+        warnings.warn(IrregularSamplingWarning(
+            f"{count} step{'s' * (count > 1)} of the record's time stamps differ from Ts = {Ts:g}, and a "
+            "sampled-time model takes its samples as evenly spaced; for a record sampled unevenly identify "
+            "in continuous time (time='continuous', moli fit --continuous)"), stacklevel=stacklevel + 1)
 
 
 def joined_times(stamps: Sequence[np.ndarray | None]) -> np.ndarray | None:

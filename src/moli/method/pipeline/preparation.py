@@ -15,6 +15,7 @@ import numpy as np
 from ...data.arguments import check_channel_order
 from ...data.iodata import IOData, longest_segment
 from ...data.quality import screen
+from ...data.stamps import warn_uneven
 from ...errors import DataError, OptionError
 from ...validation.comparison import same_period
 from ...validation.feedback import FeedbackCheck
@@ -182,6 +183,8 @@ def prepare(estimation: IOData, validation: IOData, options: IdentifyOptions) ->
     check_sample_count(estimation.N - max(delays), (1,) * p, estimation.m, feedthrough)
     check_reach(options.nmax, options.order, estimation.N - max(delays), p, estimation.m, feedthrough)
     screen(estimation, nmax, stacklevel=3)
+    for record in (estimation, validation):
+        warn_uneven(record.times, record.segment_starts, record.Ts, stacklevel=3)
     warn_feedback(loop, feedback, options.closed_loop, stacklevel=3)
     # the path's models are fitted and scored on the shifted inputs, delay-free; the
     # delays are attached once the path is done (the results are the same either way)
