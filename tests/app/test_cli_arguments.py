@@ -118,3 +118,12 @@ def test_a_constant_output_prints_no_numpy_warning(tmp_path, monkeypatch):
     done = run("fit", "flat.csv", "--inputs", "u1", "--outputs", "y1,y2", "--nmax", "3", "--out", "m.json")
     assert done.exit_code == 0, done.stderr
     assert "overflow" not in done.stderr and "RuntimeWarning" not in done.stderr, done.stderr
+
+
+def test_info_prints_a_huge_pole_in_a_few_digits(tmp_path):
+    path = tmp_path / "m.json"
+    moli.StateSpaceModel([[1e300]], [[1.0]], [[1.0]]).save(path)
+    done = run("info", str(path))
+    assert done.exit_code == 0, done.stderr
+    # fixed decimals printed all 301 digits of the pole
+    assert "1e+300" in done.stdout and max(map(len, done.stdout.splitlines())) < 120

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..data.display import console_text, period_text
+from ..data.display import console_text, number_text, period_text
 from ..models.protocol import LinearModel
 
 __all__ = ["describe"]
@@ -87,7 +87,8 @@ def _sampled_structure(model: LinearModel) -> list[str]:
         std = ", ".join(f"{v:.4g}" for v in np.sqrt(np.diag(model.noise_cov)))
         lines.append(f"noise model: Kalman gain K ({model.n} x {model.p}), innovation std {std}")
     lines.append(f"stable: {'yes' if model.is_stable() else 'NO'} "
-                 f"(largest pole modulus {np.max(np.abs(z), initial=0.0):.4f})")
+                 f"(largest pole modulus {number_text(np.max(np.abs(z), initial=0.0), 4)})")
     lines.append("poles (modulus):")
-    lines += [f"  {p.real:+.4f} {p.imag:+.4f}j  ({abs(p):.4f})" for p in z[np.argsort(-np.abs(z))]]
+    lines += [f"  {number_text(p.real, 4, '+')} {number_text(p.imag, 4, '+')}j  ({number_text(abs(p), 4)})"
+              for p in z[np.argsort(-np.abs(z))]]
     return lines

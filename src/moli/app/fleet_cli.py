@@ -19,7 +19,7 @@ import click
 import numpy as np
 
 from ..data.atomic_files import check_output_folder
-from ..data.display import console_text
+from ..data.display import console_text, number_text
 from ..data.files import read_data
 from ..data.tables import check_request
 from ..errors import DataError, MoliError, OptionError
@@ -258,7 +258,7 @@ def _raised_by(named: list[str]) -> str:
 
 
 def _number(value: float | None) -> str:
-    return "" if value is None else f"{value:.2f}"
+    return "" if value is None else number_text(value, 2)
 
 
 def _check(name: str, model_path: Path | None, record: Path, x0: str, max_drop: float) -> dict[str, Any]:

@@ -9,7 +9,7 @@ from typing import Any, Mapping, Sequence
 
 from .._version import __version__
 from ..data.atomic_files import atomic_file, write_atomic
-from ..data.display import spreadsheet_cell
+from ..data.display import number_text, spreadsheet_cell
 
 __all__ = ["SCORES", "write_summary"]
 
@@ -51,7 +51,7 @@ def _cell(value: Any) -> str:
     if value is None:
         return ""
     if isinstance(value, float):
-        return f"{value:.2f}" if abs(value) < 1e6 else f"{value:.4g}"
+        return number_text(value, 2)
     return str(value)
 
 

@@ -12,7 +12,7 @@ import math
 from typing import Any
 
 __all__ = ["figure_label", "console_text", "report_name", "spreadsheet_cell", "time_label", "frequency_label", "angular_unit",
-           "period_text", "FIGURE_LABEL_CHARS", "REPORT_NAME_CHARS"]
+           "period_text", "number_text", "FIGURE_LABEL_CHARS", "REPORT_NAME_CHARS"]
 
 # Longer names are cut in figures: a title or axis label is a few inches wide, and
 # matplotlib lays out text in time that grows with its length.
@@ -138,3 +138,9 @@ def period_text(Ts: float, unit: str | None) -> str:
     '0.1 s'
     """
     return f"{Ts:g}" if unit is None else f"{Ts:g} {unit}"
+
+
+def number_text(value: float, decimals: int, sign: str = "") -> str:
+    """``value`` with ``decimals`` decimals, or in ``g`` form from 1e6 on, where fixed decimals
+    would print hundreds of digits (a pole of 1e300) or run a table's columns together."""
+    return f"{value:{sign}.{decimals}f}" if abs(value) < 1e6 else f"{value:{sign}.{decimals}g}"
