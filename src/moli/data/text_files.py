@@ -343,8 +343,9 @@ def _sniffed_bytes(handle: BinaryIO, head: bytes) -> tuple[bytes, bool]:
 def _check_repeated(header: list[str], kept: set[str], path: Path) -> None:
     """Refuse a header that names a column the request reads twice (pandas would rename the second)."""
     names = [name.strip() for name in header]
-    for name in sorted({name for name in names if names.count(name) > 1} & kept):
-        raise DataError(f"{path}: the header names the column {name!r} {names.count(name)} times; rename them")
+    repeated = sorted({name for name in names if names.count(name) > 1} & kept)
+    if repeated:
+        raise DataError(f"{path}: the header names the column {repeated[0]!r} {names.count(repeated[0])} times: rename")
 
 
 def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: str | None,
