@@ -211,7 +211,7 @@ def test_averages_turn_the_coherence_into_the_lines_variance(tmp_path, monkeypat
 
 
 @pytest.mark.parametrize(("frequency", "said"), [
-    (True, "averages turns a coherence into a variance"),
+    (True, "averages turn the 'coh' columns into variances"),
     (False, "--averages applies to --frequency"),
 ])
 def test_averages_without_a_coherence_to_turn_are_one_error_line(frequency, said, tmp_path, monkeypatch):

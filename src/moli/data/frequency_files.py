@@ -285,6 +285,10 @@ def read_frequency_data(path: str | Path, *, Ts: float | None = None, sep: str |
     G = np.empty((len(frame), len(outputs), len(inputs)), dtype=complex)
     variance = None if spread is None else np.empty(G.shape)
     coherence = np.empty(G.shape) if _has_coherence(pairs, source) else None
+    if averages is not None and (coherence is None or spread is not None):
+        raise DataError(f"{source}: averages turn the 'coh' columns into variances, so they need 'coh' columns "
+                        f"and no '{spread or 'var'}' ones; this table has {'no coh' if coherence is None else spread} "
+                        "columns: leave averages out")
     for (output, input_), parts in pairs.items():
         first, second = (_numbers(frame, parts[part], source) for part in convention)
         G[:, outputs.index(output), inputs.index(input_)] = _complex(first, second, convention)
