@@ -184,3 +184,9 @@ def test_identify_warns_that_a_sampled_model_takes_uneven_stamps_as_even():
     stamps[200:] += 2.0                  # one step of 3 Ts: the model would take it as one
     with pytest.warns(moli.IrregularSamplingWarning, match="1 step of the record's time stamps differ"):
         moli.identify(moli.IOData(record.y, record.u, times=stamps), nmax=3)
+
+
+@pytest.mark.parametrize("method", [moli.identify, moli.identify_kernel, moli.identify_kernel_arx])
+def test_a_validation_record_of_one_sample_is_refused_by_name_before_any_work(records, method):
+    with pytest.raises(moli.DataError, match="validation holds 1 sample"):
+        method(records[0], records[1][:1], nmax=3)

@@ -13,7 +13,8 @@ import numpy as np
 
 from ..errors import DataError, MoliError, wrong_type
 
-__all__ = ["real_number", "integer", "flag", "period", "real_array", "name_list", "check_channel_order"]
+__all__ = ["real_number", "integer", "flag", "period", "real_array", "name_list", "check_channel_order",
+           "check_validation_length"]
 
 
 def _scalar(value: object) -> object:
@@ -139,3 +140,11 @@ def check_channel_order(first: object, second: object, first_what: str, second_w
             raise DataError(f"{second_what}'s {side}s are {', '.join(theirs)} and {first_what}'s "
                             f"{', '.join(ours)}: the same channels in another order, and channels are matched "
                             f"by position; give {second_what}'s {side}s in {first_what}'s order")
+
+
+def check_validation_length(validation: object) -> None:
+    """Refuse, before any work, a validation record too short to score a simulation on."""
+    count = getattr(validation, "N", 2)
+    if count < 2:
+        raise DataError(f"validation holds {count} sample: too few to score a model's simulation on; give a "
+                        "longer validation record, or none (the last 30 % of data is held out)")

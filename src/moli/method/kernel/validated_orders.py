@@ -13,7 +13,7 @@ from typing import Iterable
 
 import numpy as np
 
-from ...data.arguments import check_channel_order
+from ...data.arguments import check_channel_order, check_validation_length
 from ...data.iodata import IOData
 from ...errors import DataError, OptionError, OrderBoundWarning
 from ...models.statespace import StateSpaceModel
@@ -51,6 +51,7 @@ def checked_records(data: IOData, validation: IOData | None, x0: str) -> tuple[I
             or not same_period(validation.Ts, data.Ts):
         raise DataError("validation must be an IOData of the same channels and sampling period as data")
     check_channel_order(data, validation, "data", "validation")
+    check_validation_length(validation)
     return data, validation, "given"
 
 

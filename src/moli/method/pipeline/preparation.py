@@ -12,7 +12,7 @@ from typing import Any, Callable
 
 import numpy as np
 
-from ...data.arguments import check_channel_order
+from ...data.arguments import check_channel_order, check_validation_length
 from ...data.iodata import IOData, longest_segment
 from ...data.quality import screen
 from ...data.stamps import warn_uneven
@@ -123,6 +123,7 @@ def split_records(data: IOData, validation: IOData | None, options: IdentifyOpti
                 f"data have {data.p} and {data.m}"
             )
         check_channel_order(data, validation, "data", "validation")
+        check_validation_length(validation)
         if options.time == "discrete" and not same_period(validation.Ts, data.Ts):
             raise DataError(f"validation is sampled every Ts = {validation.Ts:g}, data every "
                             f"Ts = {data.Ts:g}; both records must share the sampling period")
