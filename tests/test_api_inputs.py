@@ -190,3 +190,17 @@ def test_identify_warns_that_a_sampled_model_takes_uneven_stamps_as_even():
 def test_a_validation_record_of_one_sample_is_refused_by_name_before_any_work(records, method):
     with pytest.raises(moli.DataError, match="validation holds 1 sample"):
         method(records[0], records[1][:1], nmax=3)
+
+
+def test_a_continuous_model_with_input_delays_is_scored_as_its_sampled_form():
+    sampled = moli.StateSpaceModel([[0.8]], [[0.5]], [[1.0]]).with_input_delays([2])
+    u = np.random.default_rng(0).standard_normal(200)
+    record = moli.IOData(sampled.simulate(u), u)
+    continuous = sampled.to_continuous()          # a delay of 2 time units: it refused to be scored
+    # the same model by two conversions: equal to round-off of the logarithm and exponential of A
+    np.testing.assert_allclose(moli.compare(continuous, record).yhat, moli.compare(sampled, record).yhat,
+                               atol=1e-12)
+    stamps = np.arange(200.0)
+    stamps[100:] += 0.5
+    with pytest.raises(moli.DataError, match="evenly sampled records only"):
+        moli.compare(continuous, moli.IOData(record.y, record.u, times=stamps))

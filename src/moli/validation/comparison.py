@@ -9,6 +9,7 @@ import numpy as np
 
 from ..data.display import console_text
 from ..data.iodata import IOData
+from ..data.stamps import irregular_steps
 from ..errors import DataError
 from .metrics import nrmse_fit, vaf
 from ..models.protocol import LinearModel
@@ -102,6 +103,16 @@ def same_period(a: float, b: float) -> bool:
     return math.isclose(a, b, rel_tol=TS_TOLERANCE)
 
 
+def _sampled_form(model: LinearModel, data: IOData) -> LinearModel:
+    """A continuous model with input delays as the sampled model that simulates it exactly on
+    ``data``: held (or linear) inputs at evenly spaced samples, the delays whole samples. Its
+    own simulation on time stamps cannot delay an input that is known only at them."""
+    if data.times is not None and irregular_steps(data.times, data.segment_starts, data.Ts):
+        raise DataError(f"the model has input delays {list(model.input_delays)}: it is scored on evenly sampled "
+                        "records only (as its sampled form), and this record's time stamps step unevenly")
+    return model.to_discrete(data.Ts, model.input_hold)  # type: ignore[attr-defined]
+
+
 def compare(model: LinearModel, data: IOData, x0: str = "zero", horizon: int | None = None) -> Comparison:
     """Simulate ``model`` on ``data``'s inputs and score it against the outputs.
 
@@ -145,6 +156,8 @@ def compare(model: LinearModel, data: IOData, x0: str = "zero", horizon: int | N
     100.0
     """
     k, u, y = checked_deviations(model, data, x0, horizon)
+    if model.is_continuous and any(model.input_delays):
+        model = _sampled_form(model, data)
     if not model.is_continuous and not same_period(data.Ts, model.Ts):
         raise DataError(
             f"the record is sampled every Ts = {data.Ts:g}, the model every Ts = {model.Ts:g}; "
