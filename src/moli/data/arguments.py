@@ -8,10 +8,14 @@ fresh value: the caller's objects are never modified.
 from __future__ import annotations
 
 from numbers import Integral, Real
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..errors import DataError, MoliError, wrong_type
+
+if TYPE_CHECKING:          # iodata imports this module
+    from .iodata import IOData
 
 __all__ = ["real_number", "integer", "flag", "period", "real_array", "name_list", "check_channel_order",
            "check_validation_length"]
@@ -142,9 +146,8 @@ def check_channel_order(first: object, second: object, first_what: str, second_w
                             f"by position; give {second_what}'s {side}s in {first_what}'s order")
 
 
-def check_validation_length(validation: object) -> None:
-    """Refuse, before any work, a validation record too short to score a simulation on."""
-    count = getattr(validation, "N", 2)
-    if count < 2:
-        raise DataError(f"validation holds {count} sample: too few to score a model's simulation on; give a "
-                        "longer validation record, or none (the last 30 % of data is held out)")
+def check_validation_length(validation: "IOData") -> None:
+    """Refuse, before any work, a validation record too short to score a simulation on (one sample)."""
+    if validation.N < 2:
+        raise DataError(f"validation holds {validation.N} sample: too few to score a model's simulation on; "
+                        "give a longer validation record, or none (the last 30 % of data is held out)")

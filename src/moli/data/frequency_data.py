@@ -29,12 +29,14 @@ def _frequencies(frequencies: object, unit: object) -> np.ndarray:
         raise DataError(f"frequencies must be finite: frequency {bad[0] + 1} (from 1) is {values[bad[0]]!r}")
     negative = np.flatnonzero(values < 0)
     if negative.size:
-        raise DataError(f"frequencies must be zero or positive: frequency {negative[0] + 1} (from 1) is {values[negative[0]]:g} {unit}")
+        raise DataError(f"frequencies must be zero or positive: frequency {negative[0] + 1} (from 1) is "
+                        f"{values[negative[0]]:g} {unit}")
     steps = np.flatnonzero(np.diff(values) <= 0)
     if steps.size:
         k = steps[0]
-        raise DataError(f"frequencies must increase strictly: frequency {k + 2} (from 1; {values[k + 1]:g} {unit}) does not "
-                        f"exceed frequency {k + 1} ({values[k]:g} {unit}); sort the lines and drop repeated ones")
+        raise DataError(f"frequencies must increase strictly: frequency {k + 2} (from 1; {values[k + 1]:g} {unit}) "
+                        f"does not exceed frequency {k + 1} ({values[k]:g} {unit}); sort the lines and drop "
+                        "repeated ones")
     return values * (2 * np.pi if unit == "Hz" else 1.0)
 
 
@@ -127,8 +129,8 @@ class FrequencyData:
         p, m = response.shape[1:]
         bad = _first_bad_line(response)
         if bad is not None:
-            raise DataError(f"G has NaN or inf at frequency {bad + 1} (from 1; {omega[bad]:g} rad/s): drop the line or "
-                            "fill it before building FrequencyData")
+            raise DataError(f"G has NaN or inf at frequency {bad + 1} (from 1; {omega[bad]:g} rad/s): drop the "
+                            "line or fill it before building FrequencyData")
         self.Ts = None if Ts is None else period(Ts)
         if self.Ts is not None and omega[-1] > np.pi / self.Ts * (1 + NYQUIST_SLACK):
             above = int(np.argmax(omega > np.pi / self.Ts * (1 + NYQUIST_SLACK)))
@@ -191,8 +193,8 @@ class FrequencyData:
         if edge.size:
             k = edge[0]
             raise DataError(f"coherence {coherence[k].min() if coherence[k].min() <= 0 else coherence[k].max():g} "
-                            f"at frequency {k + 1} (from 1; {self._omega[k]:g} rad/s) gives no variance (0 or infinite): drop the "
-                            "line, or give variance instead of averages")
+                            f"at frequency {k + 1} (from 1; {self._omega[k]:g} rad/s) gives no variance (0 or "
+                            "infinite): drop the line, or give variance instead of averages")
         return (1.0 - coherence) * np.abs(self._G) ** 2 / (self.averages * coherence)
 
     @property

@@ -269,7 +269,8 @@ def read_frequency_data(path: str | Path, *, Ts: float | None = None, sep: str |
             frame = pd.read_parquet(path)
         else:
             separator, decimal = _sniffed_format(Path(path), sep)
-            frame = pd.read_csv(path, sep=separator, decimal=decimal, engine="python" if len(separator) > 1 else "c")
+            frame = pd.read_csv(path, sep=separator, decimal=decimal,
+                                engine="python" if len(separator) > 1 else "c")   # a regular expression
     except (pd.errors.ParserError, UnicodeDecodeError, ValueError, OSError, zipfile.BadZipFile) as exc:
         raise DataError(f"{source}: not a readable table: {exc}") from None
     columns = [str(c) for c in frame.columns]

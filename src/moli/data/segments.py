@@ -15,7 +15,8 @@ import numpy as np
 
 from ..errors import DataError
 
-__all__ = ["check_starts", "remove_missing_rows", "check_slice", "starts_in_slice", "starts_after_cut", "segment_bounds"]
+__all__ = ["check_starts", "remove_missing_rows", "check_slice", "starts_in_slice", "starts_after_cut",
+           "segment_bounds"]
 
 
 def check_starts(starts: object, N: int) -> tuple[int, ...]:

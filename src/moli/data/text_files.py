@@ -382,10 +382,10 @@ def read_text(path: Path, delimiter: str | None, decimal: str | None, encoding: 
         check_header(header, str(path))
         names = list(dict.fromkeys(name.strip() for name in header))
         kept = needed(names) or set()
-        raw = pd.read_csv(path, nrows=1, header=None, dtype=str, keep_default_na=False, **options)   # unrenamed
-        _check_repeated([str(name) for name in raw.iloc[0]] if len(raw) else [], kept, path)
         columns = {}
         if kept & set(names):
+            raw = pd.read_csv(path, nrows=1, header=None, dtype=str, keep_default_na=False, **options)  # unrenamed
+            _check_repeated([str(name) for name in raw.iloc[0]] if len(raw) else [], kept, path)
             with pd.read_csv(path, chunksize=frame_files.CHUNK_ROWS, **options) as reader:
                 columns = join_chunks(reader, str(path), [n for n in names if n in kept])
     except UnicodeDecodeError:

@@ -66,7 +66,8 @@ def order_bound(nmax: object, p: int) -> int:
 def warn_order_cap(nmax: object, top: int, why: str) -> None:
     """Say so where a kernel method's orders stop below the ``nmax`` its caller gave."""
     if nmax is not None and top < int(nmax):  # type: ignore[call-overload]
-        warnings.warn(f"the orders tried stop at {top}, below nmax = {nmax}: {why}", OrderBoundWarning, stacklevel=3)
+        warnings.warn(f"the orders tried stop at {top}, below nmax = {nmax}: {why}", OrderBoundWarning,
+                      stacklevel=3)
 
 
 def validated_orders(models: Iterable[tuple[int, StateSpaceModel]], validation: IOData,

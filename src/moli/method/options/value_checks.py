@@ -3,12 +3,11 @@ an :class:`OptionError` that names the field of :class:`moli.IdentifyOptions` an
 
 from __future__ import annotations
 
-import math
-import numbers
 from typing import Any
 
 import numpy as np
 
+from ...data.arguments import flag, integer, real_number
 from ...errors import OptionError, wrong_type
 
 __all__ = [
@@ -21,32 +20,12 @@ def option_error(name: str, accepted: str, value: object, of_type: bool = False)
     return error(f"IdentifyOptions.{name} must be {accepted}, got {value!r}")
 
 
-def _is_flag(value: object) -> bool:
-    return isinstance(value, (bool, np.bool_))
-
-
-def _unwrapped(value: object) -> object:
-    """A 0-d array's item; anything else as given (an array of one element keeps its shape)."""
-    return value.item() if isinstance(value, np.ndarray) and value.ndim == 0 else value
-
-
-def _as_index(value: object) -> int | None:
-    """``value`` as an int where it is one (a Python or numpy integer), else None (a bool, an
-    array, a float: ``__index__`` refuses them or is absent)."""
-    value = _unwrapped(value)
-    if _is_flag(value) or isinstance(value, np.ndarray) or not hasattr(value, "__index__"):
-        return None
-    try:
-        return int(value.__index__())  # type: ignore[union-attr]
-    except TypeError:
-        return None
-
-
 def check_integer(name: str, value: object, low: int, high: int | None = None) -> int:
     accepted = f"an integer >= {low}" if high is None else f"an integer from {low} to {high}"
-    number = _as_index(value)
-    if number is None:
-        raise option_error(name, accepted, value, of_type=True)
+    try:
+        number = integer(name, value, error=OptionError)   # numpy's integers too; bools, floats, arrays not
+    except OptionError:
+        raise option_error(name, accepted, value, of_type=True) from None
     if number < low or (high is not None and number > high):
         raise option_error(name, accepted, value)
     return number
@@ -54,11 +33,13 @@ def check_integer(name: str, value: object, low: int, high: int | None = None) -
 
 def check_number(name: str, value: object, accepted: str, ok: Any) -> float:
     # a complex value would lose its imaginary part to float(), an array of one element its shape
-    value = _unwrapped(value)
-    if not isinstance(value, numbers.Real) or _is_flag(value):
-        raise option_error(name, accepted, value, of_type=True)
-    number = float(value)  # type: ignore[arg-type]
-    if not (math.isfinite(number) and ok(number)):
+    try:
+        number = real_number(name, value, error=OptionError)
+    except TypeError:                                      # the wrong kind of value
+        raise option_error(name, accepted, value, of_type=True) from None
+    except OptionError:                                    # NaN or infinite
+        raise option_error(name, accepted, value) from None
+    if not ok(number):
         raise option_error(name, accepted, value)
     return number
 
@@ -80,9 +61,10 @@ def check_choice(name: str, value: object, choices: tuple[Any, ...]) -> Any:
 
 
 def check_flag(name: str, value: object) -> bool:
-    if not _is_flag(value):
-        raise option_error(name, "True or False", value, of_type=True)
-    return bool(value)
+    try:
+        return flag(name, value, error=OptionError)
+    except OptionError:
+        raise option_error(name, "True or False", value, of_type=True) from None
 
 
 def check_omega_pairs(value: object) -> tuple[tuple[float, float], ...] | None:
@@ -110,10 +92,10 @@ def check_delays(value: object) -> int | tuple[int, ...] | str:
     accepted = "'auto', a non-negative integer (every input) or a non-empty sequence of them (one per input)"
 
     def one(item: object) -> int:
-        delay = _as_index(item)
-        if delay is None or delay < 0:
-            raise option_error("delays", accepted, value)
-        return delay
+        try:
+            return integer("delays", item, error=OptionError, low=0)
+        except OptionError:
+            raise option_error("delays", accepted, value) from None
 
     if isinstance(value, (list, tuple, np.ndarray)):
         if len(value) == 0:
