@@ -30,6 +30,7 @@ from ..method.options import PRESETS, IdentifyOptions
 from ..method.options.choices import KERNEL_METHODS, KERNELS, METHODS
 from ..method.search.greedy_path import PathStep, StructureSearch, exhaustive
 from ..models.storage import load_model
+from ..numerics.blas_threads import limited_blas
 from ..systems.plant import example_data
 from ..validation.comparison import X0_CHOICES, compare
 from .figure_files import check_figure_suffix, save_figure
@@ -75,7 +76,8 @@ class _Group(click.Group):
 
     def invoke(self, ctx: click.Context) -> Any:
         try:
-            return super().invoke(ctx)
+            with limited_blas():        # the report's computations too (moli.numerics.blas_threads)
+                return super().invoke(ctx)
         except click.UsageError as exc:
             click.echo(f"moli: error: {exc.format_message()}", err=True)
             ctx.exit(USAGE_ERROR)

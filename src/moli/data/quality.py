@@ -21,6 +21,7 @@ from ..numerics.triangular import streamed_factor
 from .arguments import integer
 from .iodata import IOData
 from .outliers import flag_outliers
+from ..numerics.blas_threads import limited_blas
 
 __all__ = ["QualityIssue", "check_data", "check_scale", "screen"]
 
@@ -219,53 +220,54 @@ def check_data(data: IOData, nmax: int | None = None) -> list[QualityIssue]:
     >>> [issue.kind for issue in check_data(IOData(rng.standard_normal(200), u))]
     ['constant']
     """
-    if not isinstance(data, IOData):
-        raise DataError(f"data must be an IOData, got {type(data).__name__}")
-    if nmax is not None:
-        nmax = integer("nmax", nmax, low=1)
-    issues = _scale_issues(data)
-    if issues:  # the other checks would overflow or call tiny channels constant
-        return issues
-    spread_u = _spread(data.u, data.u_offset)
-    dead_u, dead_y = spread_u <= CONSTANT_SPREAD, _spread(data.y, data.y_offset) <= CONSTANT_SPREAD
-    for name, dead, spread in zip(data.input_names, dead_u, spread_u):
-        if dead:
-            issues.append(QualityIssue(
-                "constant", (name,),
-                f"input {name!r} is constant (its standard deviation is {spread:.1e} of its "
-                "level): it carries no information about the plant; remove it from the inputs",
-                fatal=True,
-            ))
-        elif spread <= NEARLY_CONSTANT_SPREAD:
-            issues.append(QualityIssue(
-                "nearly-constant", (name,),
-                f"input {name!r} is nearly constant: its standard deviation is {spread:.1e} of "
-                f"its level, below {NEARLY_CONSTANT_SPREAD:g}, where storage and conversion "
-                "errors are as large as its variations, so a model's gain from it is "
-                "meaningless; remove it from the inputs, or record it with its variations",
-            ))
-    for name, dead in zip(data.output_names, dead_y):
-        if dead:
-            issues.append(QualityIssue(
-                "constant", (name,),
-                f"output {name!r} is constant: its model will be a constant; check the sensor "
-                "or remove the output",
-            ))
-    collinear = _collinear(data, ~dead_u)
-    issues += collinear
-    # collinear inputs excite no lag together: that issue is theirs, said above, not the excitation's
-    if nmax is not None and not dead_u.all() and not collinear:
-        needed = math.ceil(nmax / data.p) + 1
-        order = _excitation_order(data.u[:, ~dead_u], needed, data.bounds)
-        if order < needed:
-            issues.append(QualityIssue(
-                "excitation", tuple(n for n, d in zip(data.input_names, dead_u) if not d),
-                f"the inputs excite only {order} lag(s); models up to order {nmax} need "
-                f"{needed}: use a richer input (e.g. moli.random_binary_signal) or a lower nmax",
-            ))
-    issues += _clipping_and_levels(data.input_names, data.u, "input")
-    issues += _clipping_and_levels(data.output_names, data.y, "output")
-    return issues + _outliers(data)
+    with limited_blas():
+        if not isinstance(data, IOData):
+            raise DataError(f"data must be an IOData, got {type(data).__name__}")
+        if nmax is not None:
+            nmax = integer("nmax", nmax, low=1)
+        issues = _scale_issues(data)
+        if issues:  # the other checks would overflow or call tiny channels constant
+            return issues
+        spread_u = _spread(data.u, data.u_offset)
+        dead_u, dead_y = spread_u <= CONSTANT_SPREAD, _spread(data.y, data.y_offset) <= CONSTANT_SPREAD
+        for name, dead, spread in zip(data.input_names, dead_u, spread_u):
+            if dead:
+                issues.append(QualityIssue(
+                    "constant", (name,),
+                    f"input {name!r} is constant (its standard deviation is {spread:.1e} of its "
+                    "level): it carries no information about the plant; remove it from the inputs",
+                    fatal=True,
+                ))
+            elif spread <= NEARLY_CONSTANT_SPREAD:
+                issues.append(QualityIssue(
+                    "nearly-constant", (name,),
+                    f"input {name!r} is nearly constant: its standard deviation is {spread:.1e} of "
+                    f"its level, below {NEARLY_CONSTANT_SPREAD:g}, where storage and conversion "
+                    "errors are as large as its variations, so a model's gain from it is "
+                    "meaningless; remove it from the inputs, or record it with its variations",
+                ))
+        for name, dead in zip(data.output_names, dead_y):
+            if dead:
+                issues.append(QualityIssue(
+                    "constant", (name,),
+                    f"output {name!r} is constant: its model will be a constant; check the sensor "
+                    "or remove the output",
+                ))
+        collinear = _collinear(data, ~dead_u)
+        issues += collinear
+        # collinear inputs excite no lag together: that issue is theirs, said above, not the excitation's
+        if nmax is not None and not dead_u.all() and not collinear:
+            needed = math.ceil(nmax / data.p) + 1
+            order = _excitation_order(data.u[:, ~dead_u], needed, data.bounds)
+            if order < needed:
+                issues.append(QualityIssue(
+                    "excitation", tuple(n for n, d in zip(data.input_names, dead_u) if not d),
+                    f"the inputs excite only {order} lag(s); models up to order {nmax} need "
+                    f"{needed}: use a richer input (e.g. moli.random_binary_signal) or a lower nmax",
+                ))
+        issues += _clipping_and_levels(data.input_names, data.u, "input")
+        issues += _clipping_and_levels(data.output_names, data.y, "output")
+        return issues + _outliers(data)
 
 
 def _outliers(data: IOData) -> list[QualityIssue]:

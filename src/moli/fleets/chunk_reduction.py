@@ -35,6 +35,7 @@ from ..errors import DataError, OptionError
 from ..streaming.chunked import ChunkedEstimator
 from .backends import dask_completed
 from .dask_workers import quiet_workers
+from ..numerics.blas_threads import limited_blas
 
 __all__ = ["estimate_chunks"]
 
@@ -109,29 +110,30 @@ def estimate_chunks(
     >>> est.samples, np.round(est.model().poles().real, 6)
     (600, array([0.8]))
     """
-    template = ChunkedEstimator(indices, alpha, m, Ts)  # checks the structure first
-    spec: Spec = (template.indices, template.alpha, template.m, template.Ts)
-    chunks = list(chunks) if isinstance(chunks, Sequence) and not isinstance(chunks, str) else None
-    if not chunks:
-        raise DataError("chunks must be a non-empty sequence of callables returning (y, u)")
-    for k, chunk in enumerate(chunks):
-        if not callable(chunk):
-            raise DataError(f"chunks[{k}] must be callable, returning (y, u); got {type(chunk).__name__}")
-    if not isinstance(read_once, bool):
-        raise OptionError(f"read_once must be True or False, got {read_once!r}")
-    run = _Runner(client)
-    with contextlib.nullcontext() if client is None else quiet_workers(client):
-        # with read_once, a source is the future (or value) of a chunk's samples, else the chunk
-        sources = [run.submit(_samples, chunk) for chunk in chunks] if read_once else chunks
-        maps = run.gather([run.submit(_state_map, source, spec) for source in sources])
-        starts, states = _scan(maps, template.filter_states())
-        parts = [run.submit(_estimate, source, spec, start, state)
-                 for source, start, state in zip(sources, starts, states)]
-        del sources  # the factors' tasks hold the samples they need; nothing else should
-        while len(parts) > 1:  # neighbours only: merging needs consecutive parts
-            parts = [run.submit(ChunkedEstimator.merge, *parts[i : i + 2]) if i + 1 < len(parts) else parts[i]
-                     for i in range(0, len(parts), 2)]
-        return run.gather(parts)[0]
+    with limited_blas():
+        template = ChunkedEstimator(indices, alpha, m, Ts)  # checks the structure first
+        spec: Spec = (template.indices, template.alpha, template.m, template.Ts)
+        chunks = list(chunks) if isinstance(chunks, Sequence) and not isinstance(chunks, str) else None
+        if not chunks:
+            raise DataError("chunks must be a non-empty sequence of callables returning (y, u)")
+        for k, chunk in enumerate(chunks):
+            if not callable(chunk):
+                raise DataError(f"chunks[{k}] must be callable, returning (y, u); got {type(chunk).__name__}")
+        if not isinstance(read_once, bool):
+            raise OptionError(f"read_once must be True or False, got {read_once!r}")
+        run = _Runner(client)
+        with contextlib.nullcontext() if client is None else quiet_workers(client):
+            # with read_once, a source is the future (or value) of a chunk's samples, else the chunk
+            sources = [run.submit(_samples, chunk) for chunk in chunks] if read_once else chunks
+            maps = run.gather([run.submit(_state_map, source, spec) for source in sources])
+            starts, states = _scan(maps, template.filter_states())
+            parts = [run.submit(_estimate, source, spec, start, state)
+                     for source, start, state in zip(sources, starts, states)]
+            del sources  # the factors' tasks hold the samples they need; nothing else should
+            while len(parts) > 1:  # neighbours only: merging needs consecutive parts
+                parts = [run.submit(ChunkedEstimator.merge, *parts[i : i + 2]) if i + 1 < len(parts) else parts[i]
+                         for i in range(0, len(parts), 2)]
+            return run.gather(parts)[0]
 
 
 class _Runner:

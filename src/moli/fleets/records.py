@@ -32,6 +32,7 @@ from ..method.options import IdentifyOptions
 from ..models.continuous import ContinuousModel
 from .warning_capture import thread_warnings
 from ..models.statespace import StateSpaceModel
+from ..numerics.blas_threads import limited_blas
 from ..validation.comparison import compare
 from .backends import NO_WORKER_TIMEOUT, RecordTimeoutError, run_calls
 from .record_paths import absolute_paths, as_given
@@ -356,15 +357,6 @@ def _reporting(progress: bool | Callable[[FleetEntry], None], total: int) -> Ite
         yield tell
 
 
-def _blas_one_thread() -> contextlib.AbstractContextManager[Any]:
-    """One BLAS thread for one identification: the same arithmetic on every backend."""
-    try:
-        from threadpoolctl import threadpool_limits
-    except ImportError:  # without threadpoolctl, the worker's environment decides
-        return contextlib.nullcontext()
-    return threadpool_limits(1, user_api="blas")
-
-
 def _load(record: Record, read_options: dict[str, Any]) -> IOData:
     return record if isinstance(record, IOData) else read_data(record, **read_options)
 
@@ -374,7 +366,7 @@ def _identify_one(name: str, item: Item, options: IdentifyOptions,
     """One record, on a worker: read, identify, score; any failure becomes the entry's error."""
     start = time.perf_counter()
     result, fit, error = None, None, None
-    with thread_warnings() as caught, _blas_one_thread():  # kept apart on thread backends too
+    with thread_warnings() as caught, limited_blas():  # kept apart on thread backends too
         try:
             if isinstance(item, tuple):
                 estimation, validation = (_load(part, read_options) for part in item)

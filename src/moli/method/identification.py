@@ -12,15 +12,15 @@ import time
 from typing import Any, Callable
 
 from ..data import FrequencyData, IOData
-from .frequency import FrequencyResult, identify_frequency, refuse_frequency_options
 from .options import IdentifyOptions, options_section
 from .pipeline.finishing import checked_selection, record_of_making, refine_and_finish
 from .pipeline.interruption import Phases, post_path_phases
 from .pipeline.order_choice import choose_order
-from .pipeline.routes import HandedOver, handed_over
+from .pipeline.routes import HandedOver, frequency_route, handed_over
 from .pipeline.preparation import call_options, check_hooks, prepare, split_records
 from .result import IdentificationResult
 from .search.greedy_path import PathStep, StructureSearch, path_until_interrupted
+from ..numerics.blas_threads import limited_blas
 
 __all__ = ["IdentificationResult", "identify"]
 
@@ -33,7 +33,7 @@ def identify(
     progress: Callable[[PathStep], None] | None = None,
     phase: Callable[[str], None] | None = None,
     **overrides: Any,
-) -> IdentificationResult | FrequencyResult | HandedOver:
+) -> IdentificationResult | HandedOver:
     """Identify a multivariable state-space model with MOLI-ZOFT.
 
     Parameters
@@ -88,40 +88,42 @@ def identify(
     >>> paper.options.feedthrough
     False
     """
-    options = call_options(options, overrides)
-    if isinstance(data, FrequencyData):
-        return identify_frequency(data, validation, options, progress, phase)
-    refuse_frequency_options(options)
-    check_hooks(data, progress, phase)
-    estimation, validation, source = split_records(data, validation, options)
-    nmax = options.path_end(data.p)
-    handed = handed_over(estimation, validation, source, options, progress, phase)
-    if handed is not None:       # continuous time, or the kernel method
-        return handed
-    start = time.perf_counter()
-    prepared = prepare(estimation, validation, options)
-    options = prepared.options
-    search = StructureSearch.from_options(prepared.searched, prepared.scored, prepared.grid, options, prepared.radius)
-    # a fixed order is reached whatever the fit on the way
-    path, interrupted = path_until_interrupted(search, nmax, progress, margin=options.order_tolerance,
-                                               patience=options.path_patience if options.order is None else None)
-    refined = prepared.refinements()
-    # Ctrl-C after the path keeps the best complete model so far (moli.method.pipeline.interruption)
-    phases = Phases(post_path_phases(options, long_record=prepared.long_record, direct=prepared.loop == "direct"),
-                    phase)
-    selection = choose_order(path, search, refined, options, phases, interrupted=interrupted)
-    if not phases.skipped:
-        refine_and_finish(selection, search, refined, prepared, phases, interrupted=interrupted)
-    returned = selection.step               # delay-free, as the search scores it: for the bound warning
-    model = record_of_making(selection, prepared, phases.skipped)
-    skipped = checked_selection(selection, search, refined, prepared, returned=returned, nmax=nmax,
-                                interrupted=interrupted, skipped=phases.skipped)
-    return IdentificationResult(
-        model=model, path=selection.path, selected_index=selection.index, estimation=prepared.estimation,
-        validation=prepared.validation, validation_source=source, options=options, nmax=nmax, omega=prepared.grid,
-        max_radius=prepared.radius, seconds=time.perf_counter() - start,
-        interrupted=interrupted or bool(skipped), skipped=skipped,
-    )
+    with limited_blas():
+        options = call_options(options, overrides)
+        from_frequencies = frequency_route(data, validation, options, progress, phase)
+        if from_frequencies is not None:
+            return from_frequencies
+        check_hooks(data, progress, phase)
+        estimation, validation, source = split_records(data, validation, options)
+        nmax = options.path_end(data.p)
+        handed = handed_over(estimation, validation, source, options, progress, phase)
+        if handed is not None:       # continuous time, or the kernel method
+            return handed
+        start = time.perf_counter()
+        prepared = prepare(estimation, validation, options)
+        options = prepared.options
+        search = StructureSearch.from_options(prepared.searched, prepared.scored, prepared.grid, options,
+                                              prepared.radius)
+        # a fixed order is reached whatever the fit on the way
+        path, interrupted = path_until_interrupted(search, nmax, progress, margin=options.order_tolerance,
+                                                   patience=options.path_patience if options.order is None else None)
+        refined = prepared.refinements()
+        # Ctrl-C after the path keeps the best complete model so far (moli.method.pipeline.interruption)
+        phases = Phases(post_path_phases(options, long_record=prepared.long_record, direct=prepared.loop == "direct"),
+                        phase)
+        selection = choose_order(path, search, refined, options, phases, interrupted=interrupted)
+        if not phases.skipped:
+            refine_and_finish(selection, search, refined, prepared, phases, interrupted=interrupted)
+        returned = selection.step               # delay-free, as the search scores it: for the bound warning
+        model = record_of_making(selection, prepared, phases.skipped)
+        skipped = checked_selection(selection, search, refined, prepared, returned=returned, nmax=nmax,
+                                    interrupted=interrupted, skipped=phases.skipped)
+        return IdentificationResult(
+            model=model, path=selection.path, selected_index=selection.index, estimation=prepared.estimation,
+            validation=prepared.validation, validation_source=source, options=options, nmax=nmax, omega=prepared.grid,
+            max_radius=prepared.radius, seconds=time.perf_counter() - start,
+            interrupted=interrupted or bool(skipped), skipped=skipped,
+        )
 
 
 if identify.__doc__:        # None under python -OO

@@ -29,6 +29,7 @@ from ..errors import DataError, IllConditionedWarning, OptionError
 from ..method.least_squares.estimation import COND_LIMIT, check_sample_count, realize, solve_batch
 from ..models.statespace import StateSpaceModel
 from .recursive import FixedFilterEstimator, checked_chunk
+from ..numerics.blas_threads import limited_blas
 
 __all__ = ["ChunkedEstimator"]
 
@@ -182,8 +183,9 @@ class ChunkedEstimator(FixedFilterEstimator):
         ChunkedEstimator
             ``self``.
         """
-        self._absorb(y, u)
-        return self
+        with limited_blas():
+            self._absorb(y, u)
+            return self
 
     def model(self) -> StateSpaceModel:
         """The least-squares model of all samples absorbed so far.

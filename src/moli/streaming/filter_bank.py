@@ -24,6 +24,7 @@ from .recursive import BankRls, check_options, checked_chunk
 from ..models.simulation import simulate_batch
 from ..method.structure.indices import check_indices
 from ..method.tuning.barycenter import barycenter, check_omega
+from ..numerics.blas_threads import limited_blas
 
 __all__ = ["FilterBank"]
 
@@ -121,18 +122,19 @@ class FilterBank:
         FilterBank
             ``self``.
         """
-        z = checked_chunk(y, u, len(self.indices), self.m)
-        start = 0
-        while start < z.shape[0]:
-            # stop at the next multiple of retune_every so scoring sees the right window
-            stop = min(z.shape[0], start + self.retune_every - self.samples % self.retune_every)
-            piece = z[start:stop]
-            self._bank.update(piece)
-            self._recent = np.concatenate([self._recent, piece])[-self.window :]
-            if self.samples % self.retune_every == 0 and len(self._recent) == self.window:
-                self.retune()
-            start = stop
-        return self
+        with limited_blas():
+            z = checked_chunk(y, u, len(self.indices), self.m)
+            start = 0
+            while start < z.shape[0]:
+                # stop at the next multiple of retune_every so scoring sees the right window
+                stop = min(z.shape[0], start + self.retune_every - self.samples % self.retune_every)
+                piece = z[start:stop]
+                self._bank.update(piece)
+                self._recent = np.concatenate([self._recent, piece])[-self.window :]
+                if self.samples % self.retune_every == 0 and len(self._recent) == self.window:
+                    self.retune()
+                start = stop
+            return self
 
     def retune(self) -> None:
         """Score the bank on the latest window and move the barycenter candidate."""

@@ -32,6 +32,7 @@ NEGLIGIBLE_RESPONSE = 1e-17
 REACH_START = 4096
 from .sqrt_rls import SquareRootRls
 from ..method.structure.indices import Indices, check_indices
+from ..numerics.blas_threads import limited_blas
 
 __all__ = [
     "check_options", "solve_triangular_batch", "BankRls", "FixedFilterEstimator",
@@ -302,8 +303,9 @@ class RecursiveMoli(FixedFilterEstimator):
         RecursiveMoli
             ``self``.
         """
-        self._absorb(y, u)
-        return self
+        with limited_blas():
+            self._absorb(y, u)
+            return self
 
     @property
     def theta(self) -> list[np.ndarray]:

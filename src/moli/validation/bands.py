@@ -8,6 +8,7 @@ from ..data.iodata import IOData
 from ..models.bands import output_bands
 from ..models.protocol import LinearModel, check_model
 from .prediction import deviations
+from ..numerics.blas_threads import limited_blas
 
 __all__ = ["simulation_bands"]
 
@@ -60,11 +61,12 @@ def simulation_bands(
     >>> lower.shape, bool(inside.mean() > 0.8)
     ((500, 1), True)
     """
-    u, _ = deviations(check_model(model), data)
-    t = data.time()
-    # each segment simulated from the zero state, as moli.compare does
-    runs = [output_bands(model, u[a:b], confidence, method=method, samples=samples, seed=seed, t=t[a:b])
-            for a, b in data.bounds]
-    lower, upper = (np.concatenate([run[i] for run in runs]) for i in (0, 1))
-    shift = model.y_offset - data.y_offset
-    return lower + shift, upper + shift
+    with limited_blas():
+        u, _ = deviations(check_model(model), data)
+        t = data.time()
+        # each segment simulated from the zero state, as moli.compare does
+        runs = [output_bands(model, u[a:b], confidence, method=method, samples=samples, seed=seed, t=t[a:b])
+                for a, b in data.bounds]
+        lower, upper = (np.concatenate([run[i] for run in runs]) for i in (0, 1))
+        shift = model.y_offset - data.y_offset
+        return lower + shift, upper + shift

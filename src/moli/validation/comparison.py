@@ -15,6 +15,7 @@ from .metrics import nrmse_fit, vaf
 from ..models.protocol import LinearModel
 # X0_CHOICES is read from here by the options and the command line
 from .prediction import X0_CHOICES, checked_deviations, initial_state, predicted_deviations  # noqa: F401
+from ..numerics.blas_threads import limited_blas
 
 __all__ = ["Comparison", "estimate_initial_state", "compare", "same_period"]
 
@@ -155,19 +156,20 @@ def compare(model: LinearModel, data: IOData, x0: str = "zero", horizon: int | N
     >>> float(compare(m, data).mean_vaf)
     100.0
     """
-    k, u, y = checked_deviations(model, data, x0, horizon)
-    if model.is_continuous and any(model.input_delays):
-        model = _sampled_form(model, data)
-    if not model.is_continuous and not same_period(data.Ts, model.Ts):
-        raise DataError(
-            f"the record is sampled every Ts = {data.Ts:g}, the model every Ts = {model.Ts:g}; "
-            "a discrete-time model only describes records of its own sampling period"
+    with limited_blas():
+        k, u, y = checked_deviations(model, data, x0, horizon)
+        if model.is_continuous and any(model.input_delays):
+            model = _sampled_form(model, data)
+        if not model.is_continuous and not same_period(data.Ts, model.Ts):
+            raise DataError(
+                f"the record is sampled every Ts = {data.Ts:g}, the model every Ts = {model.Ts:g}; "
+                "a discrete-time model only describes records of its own sampling period"
+            )
+        t = data.time()
+        runs = [predicted_deviations(model, u[a:b], y[a:b], k, x0, t[a:b]) for a, b in data.bounds]
+        ydev = np.concatenate([run[0] for run in runs])
+        start = runs[0][1] if len(runs) == 1 else np.stack([run[1] for run in runs])
+        return Comparison(
+            yhat=ydev + model.y_offset - data.y_offset, vaf=vaf(y, ydev), fit=nrmse_fit(y, ydev), x0=start,
+            horizon=k, output_names=tuple(data.output_names),
         )
-    t = data.time()
-    runs = [predicted_deviations(model, u[a:b], y[a:b], k, x0, t[a:b]) for a, b in data.bounds]
-    ydev = np.concatenate([run[0] for run in runs])
-    start = runs[0][1] if len(runs) == 1 else np.stack([run[1] for run in runs])
-    return Comparison(
-        yhat=ydev + model.y_offset - data.y_offset, vaf=vaf(y, ydev), fit=nrmse_fit(y, ydev), x0=start,
-        horizon=k, output_names=tuple(data.output_names),
-    )

@@ -19,6 +19,7 @@ import scipy.special
 
 from ..data.iodata import IOData, require_one_segment
 from ..errors import DataError, DataQualityWarning
+from ..numerics.blas_threads import limited_blas
 
 __all__ = ["estimate_delays", "first_response_lags", "DEFAULT_MAX_DELAY"]
 
@@ -200,13 +201,14 @@ def estimate_delays(
                  mask=[[False]],
            fill_value=999999)
     """
-    first, used = first_response_lags(data, max_delay, order, level)
-    none = first < 0
-    if none.any():
-        pairs = ", ".join(f"{data.input_names[j]} -> {data.output_names[i]}"
-                          for i, j in zip(*np.nonzero(none)))
-        warnings.warn(
-            f"no response found from {pairs} within {used} samples of dead time: those "
-            "entries are masked (the input does not move the output measurably, or acts later "
-            "than max_delay)", DataQualityWarning, stacklevel=2)
-    return np.ma.masked_array(np.maximum(first - 1, 0), mask=none)
+    with limited_blas():
+        first, used = first_response_lags(data, max_delay, order, level)
+        none = first < 0
+        if none.any():
+            pairs = ", ".join(f"{data.input_names[j]} -> {data.output_names[i]}"
+                              for i, j in zip(*np.nonzero(none)))
+            warnings.warn(
+                f"no response found from {pairs} within {used} samples of dead time: those "
+                "entries are masked (the input does not move the output measurably, or acts later "
+                "than max_delay)", DataQualityWarning, stacklevel=2)
+        return np.ma.masked_array(np.maximum(first - 1, 0), mask=none)

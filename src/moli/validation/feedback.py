@@ -35,6 +35,7 @@ import scipy.special
 
 from ..data.iodata import IOData, require_one_segment
 from ..errors import ClosedLoopWarning, DataError
+from ..numerics.blas_threads import limited_blas
 
 __all__ = ["FeedbackCheck", "feedback_check", "DEFAULT_LAGS"]
 
@@ -209,30 +210,31 @@ def feedback_check(
     >>> moli.feedback_check(moli.IOData(y, u)).exact
     ('u1',)
     """
-    if not isinstance(data, IOData):
-        raise DataError(f"data must be an IOData, got {type(data).__name__}")
-    require_one_segment(data, "feedback_check (lagged regressions)")
-    if isinstance(level, bool) or not isinstance(level, (int, float)) or not 0 < level < 1:
-        raise DataError(f"level must be a number in (0, 1), got {level!r}")
-    if not isinstance(lag_zero, bool):
-        raise DataError(f"lag_zero must be True or False, got {lag_zero!r}")
-    N, p, m = data.N, data.p, data.m
-    if lags is None:
-        L = usable_lags(N, p, m)
-    elif isinstance(lags, (bool, np.bool_)) or not isinstance(lags, (int, np.integer)) or lags < 1:
-        raise DataError(f"lags must be a positive integer, got {lags!r}")
-    else:
-        L = int(lags) if usable_lags(N, p, m, int(lags)) == int(lags) else 0
-    if L == 0:
-        wanted = "one lag" if lags is None else f"lags = {lags}"
-        raise DataError(
-            f"{N} samples are too few for the feedback check with {wanted}: its regression "
-            f"needs {ROWS_PER_COLUMN} rows per column ({1 + (p + m) * max(L, lags or 1) + m} columns)"
-        )
-    check = checked_feedback(data, L, float(level), lag_zero)
-    if (why := check.cannot_tell()) is not None:
-        warnings.warn(why, ClosedLoopWarning, stacklevel=2)
-    return check
+    with limited_blas():
+        if not isinstance(data, IOData):
+            raise DataError(f"data must be an IOData, got {type(data).__name__}")
+        require_one_segment(data, "feedback_check (lagged regressions)")
+        if isinstance(level, bool) or not isinstance(level, (int, float)) or not 0 < level < 1:
+            raise DataError(f"level must be a number in (0, 1), got {level!r}")
+        if not isinstance(lag_zero, bool):
+            raise DataError(f"lag_zero must be True or False, got {lag_zero!r}")
+        N, p, m = data.N, data.p, data.m
+        if lags is None:
+            L = usable_lags(N, p, m)
+        elif isinstance(lags, (bool, np.bool_)) or not isinstance(lags, (int, np.integer)) or lags < 1:
+            raise DataError(f"lags must be a positive integer, got {lags!r}")
+        else:
+            L = int(lags) if usable_lags(N, p, m, int(lags)) == int(lags) else 0
+        if L == 0:
+            wanted = "one lag" if lags is None else f"lags = {lags}"
+            raise DataError(
+                f"{N} samples are too few for the feedback check with {wanted}: its regression "
+                f"needs {ROWS_PER_COLUMN} rows per column ({1 + (p + m) * max(L, lags or 1) + m} columns)"
+            )
+        check = checked_feedback(data, L, float(level), lag_zero)
+        if (why := check.cannot_tell()) is not None:
+            warnings.warn(why, ClosedLoopWarning, stacklevel=2)
+        return check
 
 
 def checked_feedback(data: IOData, lags: int, level: float, lag_zero: bool) -> FeedbackCheck:

@@ -16,6 +16,7 @@ from ..data.frequency_data import FrequencyData
 from ..data.iodata import IOData, require_one_segment
 from ..errors import DataError
 from ..models.frequency import check_omega
+from ..numerics.blas_threads import limited_blas
 
 __all__ = ["EmpiricalResponse", "empirical_frequency_response", "spectral_frequency_data"]
 
@@ -89,8 +90,9 @@ def empirical_frequency_response(
     >>> bool(abs(H[0, 0, 0] - exact[0, 0, 0]) < 0.05 * abs(exact[0, 0, 0]))
     True
     """
-    omega_, response, _, _ = _welch(data, omega, nperseg)
-    return EmpiricalResponse(omega_, response)
+    with limited_blas():
+        omega_, response, _, _ = _welch(data, omega, nperseg)
+        return EmpiricalResponse(omega_, response)
 
 
 def spectral_frequency_data(data: IOData, nperseg: int | None = None) -> FrequencyData:
@@ -131,13 +133,14 @@ def spectral_frequency_data(data: IOData, nperseg: int | None = None) -> Frequen
     >>> frf.variance.shape == frf.G.shape
     True
     """
-    omega, response, variance, coherence = _welch(data, None, nperseg)
-    kept = np.all(np.isfinite(response), axis=(1, 2)) & np.all(variance > 0, axis=(1, 2))
-    if not kept.any():
-        raise DataError("the inputs have no power at any frequency of the spectral estimate")
-    return FrequencyData(omega[kept], response[kept], unit="rad/s", Ts=data.Ts, variance=variance[kept],
-                         output_names=data.output_names, input_names=data.input_names,
-                         coherence=np.clip(coherence[kept], 0.0, 1.0))
+    with limited_blas():
+        omega, response, variance, coherence = _welch(data, None, nperseg)
+        kept = np.all(np.isfinite(response), axis=(1, 2)) & np.all(variance > 0, axis=(1, 2))
+        if not kept.any():
+            raise DataError("the inputs have no power at any frequency of the spectral estimate")
+        return FrequencyData(omega[kept], response[kept], unit="rad/s", Ts=data.Ts, variance=variance[kept],
+                             output_names=data.output_names, input_names=data.input_names,
+                             coherence=np.clip(coherence[kept], 0.0, 1.0))
 
 
 def _welch(data: IOData, omega: object | None,

@@ -22,6 +22,7 @@ from ..models.simulation import free_response, simulate_batch
 from ..models.protocol import LinearModel, check_model
 from ..models.statespace import StateSpaceModel
 from ..numerics.triangular import tall_factor
+from ..numerics.blas_threads import limited_blas
 
 __all__ = ["predict", "fit_free_response"]
 
@@ -258,8 +259,9 @@ def predict(
     >>> bool(np.std(y[:, 0] - one_step[:, 0]) < np.std(y[:, 0] - moli.predict(m, data)[:, 0]))
     True
     """
-    k, u, y = checked_deviations(model, data, x0, horizon)
-    t = data.time()
-    # each segment from its own initial state: the predictor does not run across a gap
-    ydev = np.concatenate([predicted_deviations(model, u[a:b], y[a:b], k, x0, t[a:b])[0] for a, b in data.bounds])
-    return ydev + model.y_offset - data.y_offset
+    with limited_blas():
+        k, u, y = checked_deviations(model, data, x0, horizon)
+        t = data.time()
+        # each segment from its own initial state: the predictor does not run across a gap
+        ydev = np.concatenate([predicted_deviations(model, u[a:b], y[a:b], k, x0, t[a:b])[0] for a, b in data.bounds])
+        return ydev + model.y_offset - data.y_offset

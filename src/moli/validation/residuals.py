@@ -22,6 +22,7 @@ from ..errors import DataError, OptionError
 from ..models.protocol import LinearModel, check_model
 from .prediction import X0_CHOICES, deviations, horizon_value, predicted_deviations
 from .whitening import fit_ar
+from ..numerics.blas_threads import limited_blas
 
 __all__ = ["ResidualAnalysis", "residual_analysis"]
 
@@ -257,60 +258,61 @@ def residual_analysis(
     >>> bool(residual_analysis(low, data).independence_pvalue[0, 0] < 0.01)
     True
     """
-    if isinstance(lags, bool) or not hasattr(lags, "__index__") or int(lags) < 1:  # type: ignore[call-overload]
-        raise OptionError(f"lags must be an integer >= 1, got {lags!r}")
-    lags = int(lags)  # type: ignore[call-overload]
-    if isinstance(confidence, bool) or not isinstance(confidence, (int, float)) or not 0.0 < confidence < 1.0:
-        raise OptionError(f"confidence must be a number in (0, 1), got {confidence!r}")
-    if not isinstance(x0, str) or x0 not in X0_CHOICES:
-        raise OptionError(f"x0 must be one of {X0_CHOICES}, got {x0!r}")
-    check_model(model)
-    k = horizon_value(horizon)  # checked even when unused
-    if isinstance(data, IOData):
-        require_one_segment(data, "residual_analysis (correlations over lags)")
-    if model.K is None:
-        k = None  # no predictor: the simulation errors
-    u, y = deviations(model, data)
-    N = y.shape[0]
-    if N < SAMPLES_PER_LAG * (lags + 1):
-        raise DataError(f"data must have at least {SAMPLES_PER_LAG * (lags + 1)} samples for "
-                        f"lags={lags}, got {N}; lower lags")
-    from scipy.special import chdtrc, ndtri  # slow to import: only when testing
+    with limited_blas():
+        if isinstance(lags, bool) or not hasattr(lags, "__index__") or int(lags) < 1:  # type: ignore[call-overload]
+            raise OptionError(f"lags must be an integer >= 1, got {lags!r}")
+        lags = int(lags)  # type: ignore[call-overload]
+        if isinstance(confidence, bool) or not isinstance(confidence, (int, float)) or not 0.0 < confidence < 1.0:
+            raise OptionError(f"confidence must be a number in (0, 1), got {confidence!r}")
+        if not isinstance(x0, str) or x0 not in X0_CHOICES:
+            raise OptionError(f"x0 must be one of {X0_CHOICES}, got {x0!r}")
+        check_model(model)
+        k = horizon_value(horizon)  # checked even when unused
+        if isinstance(data, IOData):
+            require_one_segment(data, "residual_analysis (correlations over lags)")
+        if model.K is None:
+            k = None  # no predictor: the simulation errors
+        u, y = deviations(model, data)
+        N = y.shape[0]
+        if N < SAMPLES_PER_LAG * (lags + 1):
+            raise DataError(f"data must have at least {SAMPLES_PER_LAG * (lags + 1)} samples for "
+                            f"lags={lags}, got {N}; lower lags")
+        from scipy.special import chdtrc, ndtri  # slow to import: only when testing
 
-    stamps = data.time()
-    yhat, _ = predicted_deviations(model, u, y, k, x0, stamps)
-    residuals = y - yhat
-    # the predictions are affine in the initial state: its response is what the zero state lacks
-    start_response = yhat - predicted_deviations(model, u, y, k, "zero", stamps)[0] if x0 == "estimate" else None
-    first = _first_tested(residuals, start_response, N - SAMPLES_PER_LAG * (lags + 1))
-    tested, u_tested = residuals[first:], u[first:]
-    N = tested.shape[0]
-    z = float(ndtri(0.5 + 0.5 * confidence))
-    e = tested - tested.mean(axis=0)
-    uc = u_tested - u_tested.mean(axis=0)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        # constant signals give NaN correlations, reported as untested
-        e_scaled, u_scaled = e / e.std(axis=0), uc / uc.std(axis=0)
-        auto_e = np.einsum("iil->il", _correlations(e_scaled, e_scaled, lags))[:, lags:]
-        auto_u = np.einsum("jjl->jl", _correlations(u_scaled, u_scaled, lags))[:, lags:]
-        cross = _correlations(e_scaled, u_scaled, lags)
-        steps = np.arange(1, lags + 1)
-        ljung_box = N * (N + 2) * np.sum(auto_e[:, 1:] ** 2 / (N - steps), axis=1)
-        whiteness = chdtrc(lags, ljung_box)
-        # var(r_eu) ~ sum_k r_e(k) r_u(k) / N; the Bartlett taper keeps the truncated sum >= 0
-        taper = 1.0 - steps / (lags + 1.0)
-        spread = 1.0 + 2.0 * np.einsum("il,jl,l->ij", auto_e[:, 1:], auto_u[:, 1:], taper)
-        cross_bound = z * np.sqrt(spread / N)
-        independence = _independence(e, uc, auto_e, lags)
-    level = 1.0 - confidence
-    verdicts = tuple(_verdict(name, whiteness[i], independence[i], data.input_names, level)
-                     for i, name in enumerate(data.output_names))
-    return ResidualAnalysis(
-        residuals=residuals, first_tested=first, horizon=k, lags=lags, confidence=float(confidence),
-        autocorrelation=auto_e, cross_correlation=cross, whiteness_bound=z / np.sqrt(N),
-        cross_bound=cross_bound, whiteness_pvalue=whiteness, independence_pvalue=independence,
-        verdicts=verdicts, output_names=data.output_names, input_names=data.input_names,
-    )
+        stamps = data.time()
+        yhat, _ = predicted_deviations(model, u, y, k, x0, stamps)
+        residuals = y - yhat
+        # the predictions are affine in the initial state: its response is what the zero state lacks
+        start_response = yhat - predicted_deviations(model, u, y, k, "zero", stamps)[0] if x0 == "estimate" else None
+        first = _first_tested(residuals, start_response, N - SAMPLES_PER_LAG * (lags + 1))
+        tested, u_tested = residuals[first:], u[first:]
+        N = tested.shape[0]
+        z = float(ndtri(0.5 + 0.5 * confidence))
+        e = tested - tested.mean(axis=0)
+        uc = u_tested - u_tested.mean(axis=0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            # constant signals give NaN correlations, reported as untested
+            e_scaled, u_scaled = e / e.std(axis=0), uc / uc.std(axis=0)
+            auto_e = np.einsum("iil->il", _correlations(e_scaled, e_scaled, lags))[:, lags:]
+            auto_u = np.einsum("jjl->jl", _correlations(u_scaled, u_scaled, lags))[:, lags:]
+            cross = _correlations(e_scaled, u_scaled, lags)
+            steps = np.arange(1, lags + 1)
+            ljung_box = N * (N + 2) * np.sum(auto_e[:, 1:] ** 2 / (N - steps), axis=1)
+            whiteness = chdtrc(lags, ljung_box)
+            # var(r_eu) ~ sum_k r_e(k) r_u(k) / N; the Bartlett taper keeps the truncated sum >= 0
+            taper = 1.0 - steps / (lags + 1.0)
+            spread = 1.0 + 2.0 * np.einsum("il,jl,l->ij", auto_e[:, 1:], auto_u[:, 1:], taper)
+            cross_bound = z * np.sqrt(spread / N)
+            independence = _independence(e, uc, auto_e, lags)
+        level = 1.0 - confidence
+        verdicts = tuple(_verdict(name, whiteness[i], independence[i], data.input_names, level)
+                         for i, name in enumerate(data.output_names))
+        return ResidualAnalysis(
+            residuals=residuals, first_tested=first, horizon=k, lags=lags, confidence=float(confidence),
+            autocorrelation=auto_e, cross_correlation=cross, whiteness_bound=z / np.sqrt(N),
+            cross_bound=cross_bound, whiteness_pvalue=whiteness, independence_pvalue=independence,
+            verdicts=verdicts, output_names=data.output_names, input_names=data.input_names,
+        )
 
 
 def _first_tested(residuals: np.ndarray, start_response: np.ndarray | None, last: int) -> int:

@@ -25,6 +25,7 @@ from ...models.statespace import StateSpaceModel
 from .arx import RegularizedArx, regularized_arx
 from .balanced import balancing
 from .validated_orders import KernelStep, checked_records, order_bound, order_table, validated_orders, warn_order_cap
+from ...numerics.blas_threads import limited_blas
 
 __all__ = ["KernelArxResult", "identify_kernel_arx"]
 
@@ -91,36 +92,37 @@ def identify_kernel_arx(data: IOData, validation: IOData | None = None, *, kerne
     >>> result.model.n == result.selected.order <= 6
     True
     """
-    estimation, validation, source = checked_records(data, validation, x0)
-    last = order_bound(nmax, data.p)
-    arx = regularized_arx(estimation, kernel, lags, feedthrough=feedthrough, center=center)
-    A, B, C, D = arx.state_space()
-    balanced = balancing(A, B, C)
-    top = max(balanced.unstable, min(last, balanced.largest_order))
-    warn_order_cap(nmax, top, f"the balanced ARX model keeps {balanced.largest_order} states")
-    orders = range(max(1, balanced.unstable), top + 1)
-    if not orders:
-        raise DataError("the regularized ARX model has no response to the inputs (all its Hankel singular "
-                        "values are zero): the record does not show the inputs acting on the outputs")
-    # the operating point the fit removed
-    means = (estimation.y.mean(axis=0), estimation.u.mean(axis=0)) if center else (None, None)
+    with limited_blas():
+        estimation, validation, source = checked_records(data, validation, x0)
+        last = order_bound(nmax, data.p)
+        arx = regularized_arx(estimation, kernel, lags, feedthrough=feedthrough, center=center)
+        A, B, C, D = arx.state_space()
+        balanced = balancing(A, B, C)
+        top = max(balanced.unstable, min(last, balanced.largest_order))
+        warn_order_cap(nmax, top, f"the balanced ARX model keeps {balanced.largest_order} states")
+        orders = range(max(1, balanced.unstable), top + 1)
+        if not orders:
+            raise DataError("the regularized ARX model has no response to the inputs (all its Hankel singular "
+                            "values are zero): the record does not show the inputs acting on the outputs")
+        # the operating point the fit removed
+        means = (estimation.y.mean(axis=0), estimation.u.mean(axis=0)) if center else (None, None)
 
-    def truncation(order: int) -> StateSpaceModel:
-        V, W = balanced.projection(order)
-        return StateSpaceModel(W.T @ A @ V, W.T @ B, C @ V, D, data.Ts, output_names=data.output_names,
-                               input_names=data.input_names, y_offset=means[0], u_offset=means[1])
+        def truncation(order: int) -> StateSpaceModel:
+            V, W = balanced.projection(order)
+            return StateSpaceModel(W.T @ A @ V, W.T @ B, C @ V, D, data.Ts, output_names=data.output_names,
+                                   input_names=data.input_names, y_offset=means[0], u_offset=means[1])
 
-    path, selected = validated_orders(((order, truncation(order)) for order in orders), validation, x0)
-    chosen = path[selected]
-    info = {"method": "kernel-arx", "kernel": kernel, "arx_lags": arx.lags, "validation_vaf": chosen.vaf.tolist(),
-            **({} if data.time_unit is None else {"time_unit": data.time_unit})}
-    cov_factor = _covariance(arx, *balanced.projection(chosen.order))
-    model = StateSpaceModel(chosen.model.A, chosen.model.B, chosen.model.C, D, data.Ts,
-                            output_names=data.output_names, input_names=data.input_names, y_offset=means[0],
-                            u_offset=means[1], info=info, cov_factor=cov_factor)
-    path[selected] = KernelStep(chosen.order, model, chosen.vaf)
-    return KernelArxResult(model, arx, path, selected, estimation=estimation, validation=validation,
-                           validation_source=source)
+        path, selected = validated_orders(((order, truncation(order)) for order in orders), validation, x0)
+        chosen = path[selected]
+        info = {"method": "kernel-arx", "kernel": kernel, "arx_lags": arx.lags, "validation_vaf": chosen.vaf.tolist(),
+                **({} if data.time_unit is None else {"time_unit": data.time_unit})}
+        cov_factor = _covariance(arx, *balanced.projection(chosen.order))
+        model = StateSpaceModel(chosen.model.A, chosen.model.B, chosen.model.C, D, data.Ts,
+                                output_names=data.output_names, input_names=data.input_names, y_offset=means[0],
+                                u_offset=means[1], info=info, cov_factor=cov_factor)
+        path[selected] = KernelStep(chosen.order, model, chosen.vaf)
+        return KernelArxResult(model, arx, path, selected, estimation=estimation, validation=validation,
+                               validation_source=source)
 
 
 def _covariance(arx: RegularizedArx, V: np.ndarray, W: np.ndarray) -> np.ndarray:

@@ -19,6 +19,7 @@ from ..least_squares.estimation import COND_LIMIT
 from .empirical_bayes import OutputFit, fit_output
 from .fir_rows import fir_factor, fir_rows
 from .kernels import KERNELS, decay_of, named_hyperparameters
+from ...numerics.blas_threads import limited_blas
 
 __all__ = ["ImpulseResponse", "impulse_response"]
 
@@ -157,35 +158,36 @@ def impulse_response(data: IOData, kernel: str = "TC", length: int | None = None
     >>> bool(np.max(np.abs(fit.coefficients[:, 0, 0] - 0.8 ** np.arange(30))) < 0.1)
     True
     """
-    check_kernel_arguments(data, kernel, center)
-    if length is not None:
-        length = integer("length", length, error=OptionError, low=1)
-    first = 0 if flag("feedthrough", feedthrough, error=OptionError) else 1
-    record = centred_record(data, center)
-    longest = max(stop - start for start, stop in record.bounds)
-    if length is not None and length >= longest:
-        raise DataError(f"length = {length} lags reach beyond the longest segment ({longest} samples): "
-                        "give a shorter length")
-    chosen = None
-    if length is None:
-        length, chosen = _chosen_length(record, "TC" if kernel == "none" else kernel, first)
-    lags = np.arange(first, first + length)
-    rows, per_output = fir_rows(record, lags), record.m * length
-    if rows < 1 or (kernel == "none" and rows <= per_output):
-        raise DataError(f"the record gives {rows} rows for {length} lags of {record.m} inputs "
-                        f"({per_output} coefficients per output): "
-                        + ("least squares needs more rows than coefficients; use a kernel or a shorter length"
-                           if kernel == "none" else "give a longer record or a shorter length"))
-    # the length's search fitted this kernel at the length it chose: its fits are the estimate
-    fits = chosen if chosen is not None and kernel != "none" else _fits(record, lags, kernel)
-    n, m = length, record.m
-    return ImpulseResponse(
-        coefficients=np.stack([f.coefficients.reshape(m, n).T for f in fits], axis=1),
-        lags=lags, cov_factors=tuple(f.cov_factor for f in fits),
-        noise_variance=np.array([f.noise_variance for f in fits]), kernel=kernel,
-        hyperparameters=tuple(tuple(named_hyperparameters(kernel, z) for z in f.coordinates) for f in fits),
-        Ts=record.Ts, output_names=record.output_names, input_names=record.input_names,
-        time_unit=record.time_unit)
+    with limited_blas():
+        check_kernel_arguments(data, kernel, center)
+        if length is not None:
+            length = integer("length", length, error=OptionError, low=1)
+        first = 0 if flag("feedthrough", feedthrough, error=OptionError) else 1
+        record = centred_record(data, center)
+        longest = max(stop - start for start, stop in record.bounds)
+        if length is not None and length >= longest:
+            raise DataError(f"length = {length} lags reach beyond the longest segment ({longest} samples): "
+                            "give a shorter length")
+        chosen = None
+        if length is None:
+            length, chosen = _chosen_length(record, "TC" if kernel == "none" else kernel, first)
+        lags = np.arange(first, first + length)
+        rows, per_output = fir_rows(record, lags), record.m * length
+        if rows < 1 or (kernel == "none" and rows <= per_output):
+            raise DataError(f"the record gives {rows} rows for {length} lags of {record.m} inputs "
+                            f"({per_output} coefficients per output): "
+                            + ("least squares needs more rows than coefficients; use a kernel or a shorter length"
+                               if kernel == "none" else "give a longer record or a shorter length"))
+        # the length's search fitted this kernel at the length it chose: its fits are the estimate
+        fits = chosen if chosen is not None and kernel != "none" else _fits(record, lags, kernel)
+        n, m = length, record.m
+        return ImpulseResponse(
+            coefficients=np.stack([f.coefficients.reshape(m, n).T for f in fits], axis=1),
+            lags=lags, cov_factors=tuple(f.cov_factor for f in fits),
+            noise_variance=np.array([f.noise_variance for f in fits]), kernel=kernel,
+            hyperparameters=tuple(tuple(named_hyperparameters(kernel, z) for z in f.coordinates) for f in fits),
+            Ts=record.Ts, output_names=record.output_names, input_names=record.input_names,
+            time_unit=record.time_unit)
 
 
 def _fits(record: IOData, lags: np.ndarray, kernel: str) -> list[OutputFit]:

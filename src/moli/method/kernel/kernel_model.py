@@ -20,6 +20,7 @@ from ...models.statespace import StateSpaceModel
 from .impulse import ImpulseResponse, impulse_response
 from .realization import hankel_blocks, hankel_realization, realization_covariance
 from .validated_orders import KernelStep, checked_records, order_bound, order_table, validated_orders, warn_order_cap
+from ...numerics.blas_threads import limited_blas
 
 __all__ = ["KernelResult", "identify_kernel"]
 
@@ -82,32 +83,33 @@ def identify_kernel(data: IOData, validation: IOData | None = None, *, kernel: s
     >>> result.model.n == result.selected.order <= 6
     True
     """
-    estimation, validation, source = checked_records(data, validation, x0)
-    last = order_bound(nmax, data.p)
-    fit = impulse_response(estimation, kernel, length, feedthrough=feedthrough, center=center)
-    markov = fit.coefficients[int(feedthrough):]
-    rows, cols = hankel_blocks(markov.shape[0])
-    top = min(last, rows * data.p, cols * data.m)
-    warn_order_cap(nmax, top, f"the Hankel matrix of the impulse response's {markov.shape[0]} lags has no more "
-                              "independent rows or columns; give a longer length= or record")
-    D = fit.coefficients[0] if feedthrough else np.zeros((data.p, data.m))
-    # the operating point the fit removed
-    means = (estimation.y.mean(axis=0), estimation.u.mean(axis=0)) if center else (None, None)
-    path, selected = validated_orders(
-        ((order, StateSpaceModel(*hankel_realization(markov, order), D, data.Ts, output_names=data.output_names,
-                                 input_names=data.input_names, y_offset=means[0], u_offset=means[1]))
-         for order in range(1, top + 1)), validation, x0)
-    chosen = path[selected].model
-    directions = [_direction(fit, j, column) for j, factor in enumerate(fit.cov_factors) for column in factor.T]
-    info = {"method": "kernel", "kernel": kernel, "impulse_lags": len(fit.lags),
-            "validation_vaf": path[selected].vaf.tolist(),
-            **({} if data.time_unit is None else {"time_unit": data.time_unit})}
-    model = StateSpaceModel(chosen.A, chosen.B, chosen.C, chosen.D, data.Ts, output_names=data.output_names,
-                            input_names=data.input_names, y_offset=means[0], u_offset=means[1], info=info,
-                            cov_factor=realization_covariance(markov, chosen.n, directions, feedthrough))
-    path[selected] = KernelStep(path[selected].order, model, path[selected].vaf)
-    return KernelResult(model, fit, path, selected, estimation=estimation, validation=validation,
-                        validation_source=source)
+    with limited_blas():
+        estimation, validation, source = checked_records(data, validation, x0)
+        last = order_bound(nmax, data.p)
+        fit = impulse_response(estimation, kernel, length, feedthrough=feedthrough, center=center)
+        markov = fit.coefficients[int(feedthrough):]
+        rows, cols = hankel_blocks(markov.shape[0])
+        top = min(last, rows * data.p, cols * data.m)
+        warn_order_cap(nmax, top, f"the Hankel matrix of the impulse response's {markov.shape[0]} lags has no more "
+                                  "independent rows or columns; give a longer length= or record")
+        D = fit.coefficients[0] if feedthrough else np.zeros((data.p, data.m))
+        # the operating point the fit removed
+        means = (estimation.y.mean(axis=0), estimation.u.mean(axis=0)) if center else (None, None)
+        path, selected = validated_orders(
+            ((order, StateSpaceModel(*hankel_realization(markov, order), D, data.Ts, output_names=data.output_names,
+                                     input_names=data.input_names, y_offset=means[0], u_offset=means[1]))
+             for order in range(1, top + 1)), validation, x0)
+        chosen = path[selected].model
+        directions = [_direction(fit, j, column) for j, factor in enumerate(fit.cov_factors) for column in factor.T]
+        info = {"method": "kernel", "kernel": kernel, "impulse_lags": len(fit.lags),
+                "validation_vaf": path[selected].vaf.tolist(),
+                **({} if data.time_unit is None else {"time_unit": data.time_unit})}
+        model = StateSpaceModel(chosen.A, chosen.B, chosen.C, chosen.D, data.Ts, output_names=data.output_names,
+                                input_names=data.input_names, y_offset=means[0], u_offset=means[1], info=info,
+                                cov_factor=realization_covariance(markov, chosen.n, directions, feedthrough))
+        path[selected] = KernelStep(path[selected].order, model, path[selected].vaf)
+        return KernelResult(model, fit, path, selected, estimation=estimation, validation=validation,
+                            validation_source=source)
 
 
 def _direction(fit: ImpulseResponse, j: int, column: np.ndarray) -> np.ndarray:

@@ -25,6 +25,7 @@ from .row_blocks import WHOLE_ROWS, lagged_blocks
 from ...models.statespace import StateSpaceModel
 from ..structure.rows import check_regression_rows, check_sample_count, regression_rows, row_breaks, row_count
 from ..structure.indices import Indices, check_indices
+from ...numerics.blas_threads import limited_blas
 
 __all__ = [
     "filtered_regressors", "segment_filtered", "output_regressors", "solve_batch", "fit_batch",
@@ -281,39 +282,40 @@ def estimate(
     >>> np.round(model.poles().real, 6)
     array([0.8])
     """
-    if not isinstance(data, IOData):
-        raise DataError(f"data must be an IOData, got {type(data).__name__}")
-    if not isinstance(covariance, bool):
-        raise OptionError(f"covariance must be True or False, got {covariance!r}")
-    idx = check_indices(indices, data.p)
-    coeffs = check_alpha(alpha)
-    alphas = divisors(coeffs, idx)
-    check_regression_rows(data.bounds, idx, data.m)
-    z = np.concatenate([data.y, data.u], axis=1)
-    starts = data.segment_starts
-    if row_count(data.bounds, max(idx)) <= WHOLE_ROWS:
-        A, B, C, cond = fit_batch(z, idx, [alphas], starts)
-    else:                           # a long record: in row blocks, in bounded memory
-        thetas, worst = _streamed_fit(z, idx, alphas, starts)
-        A, B, C = realize(thetas, [alphas], idx, data.m)
-        cond = np.array([worst])
-    if cond[0] > COND_LIMIT:
-        warnings.warn(
-            f"least-squares problem for list {list(idx)} is badly conditioned "
-            f"(condition ~{cond[0]:.2g}): the input may not excite the plant enough, or the "
-            "order is too high for the data",
-            IllConditionedWarning,
-            stacklevel=2,
+    with limited_blas():
+        if not isinstance(data, IOData):
+            raise DataError(f"data must be an IOData, got {type(data).__name__}")
+        if not isinstance(covariance, bool):
+            raise OptionError(f"covariance must be True or False, got {covariance!r}")
+        idx = check_indices(indices, data.p)
+        coeffs = check_alpha(alpha)
+        alphas = divisors(coeffs, idx)
+        check_regression_rows(data.bounds, idx, data.m)
+        z = np.concatenate([data.y, data.u], axis=1)
+        starts = data.segment_starts
+        if row_count(data.bounds, max(idx)) <= WHOLE_ROWS:
+            A, B, C, cond = fit_batch(z, idx, [alphas], starts)
+        else:                           # a long record: in row blocks, in bounded memory
+            thetas, worst = _streamed_fit(z, idx, alphas, starts)
+            A, B, C = realize(thetas, [alphas], idx, data.m)
+            cond = np.array([worst])
+        if cond[0] > COND_LIMIT:
+            warnings.warn(
+                f"least-squares problem for list {list(idx)} is badly conditioned "
+                f"(condition ~{cond[0]:.2g}): the input may not excite the plant enough, or the "
+                "order is too high for the data",
+                IllConditionedWarning,
+                stacklevel=2,
+            )
+        model = StateSpaceModel(
+            A[0], B[0], C[0], Ts=data.Ts, output_names=data.output_names,
+            input_names=data.input_names, indices=idx, alpha=coeffs,
+            y_offset=data.y_offset, u_offset=data.u_offset,
         )
-    model = StateSpaceModel(
-        A[0], B[0], C[0], Ts=data.Ts, output_names=data.output_names,
-        input_names=data.input_names, indices=idx, alpha=coeffs,
-        y_offset=data.y_offset, u_offset=data.u_offset,
-    )
-    if covariance:
-        _attach_covariance(model, z, idx, alphas, starts)
-    model.warn_if_unstable(stacklevel=2)
-    return model
+        if covariance:
+            _attach_covariance(model, z, idx, alphas, starts)
+        model.warn_if_unstable(stacklevel=2)
+        return model
 
 
 def _attach_covariance(

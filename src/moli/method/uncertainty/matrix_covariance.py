@@ -24,6 +24,7 @@ from ..refinement.observer_form import ObserverForm, observer_form
 from ..closed_loop.reference_projection import FirstStage
 from ..refinement.levenberg_marquardt import is_refined
 from .refined_covariance import refined_covariance
+from ...numerics.blas_threads import limited_blas
 
 __all__ = ["estimate_covariance"]
 
@@ -95,32 +96,33 @@ def estimate_covariance(model: StateSpaceModel, data: IOData, first_stage: First
     >>> bool(np.allclose(again.cov_factor, model.cov_factor))
     True
     """
-    if not isinstance(model, StateSpaceModel):
-        raise DataError(f"model must be a StateSpaceModel, got {type(model).__name__}")
-    if model.indices is None or (model.alpha is None and model.divisors is None):
-        raise DataError("the covariance needs a MOLI model that carries its indices and filter polynomials "
-                        "(from moli.estimate or moli.identify)")
-    if first_stage is not None and not isinstance(first_stage, FirstStage):
-        raise DataError(f"first_stage must be None or the FirstStage of a two-stage closed-loop fit, "
-                        f"got {type(first_stage).__name__}")
-    u, y = deviations(model, data)
-    if is_refined(model) or first_stage is not None:
-        factor, record = refined_covariance(model, data, first_stage)
+    with limited_blas():
+        if not isinstance(model, StateSpaceModel):
+            raise DataError(f"model must be a StateSpaceModel, got {type(model).__name__}")
+        if model.indices is None or (model.alpha is None and model.divisors is None):
+            raise DataError("the covariance needs a MOLI model that carries its indices and filter polynomials "
+                            "(from moli.estimate or moli.identify)")
+        if first_stage is not None and not isinstance(first_stage, FirstStage):
+            raise DataError(f"first_stage must be None or the FirstStage of a two-stage closed-loop fit, "
+                            f"got {type(first_stage).__name__}")
+        u, y = deviations(model, data)
+        if is_refined(model) or first_stage is not None:
+            factor, record = refined_covariance(model, data, first_stage)
+            attached = copy.deepcopy(model)
+            attached.cov_factor, attached.info["covariance"] = factor, record
+            return attached
+        form = observer_form(model)
+        through = _feedthrough_rows(model, form)
+        check_regression_rows(data.bounds, model.indices, model.m, bool(through.any()))
+        filters = model.divisors if model.divisors is not None else divisors(model.alpha, model.indices)
+        z, starts, skip = np.concatenate([y, u], axis=1), data.segment_starts, max(model.indices)
+        if row_count(data.bounds, skip) <= WHOLE_ROWS:
+            problems = (output_regressors(z, model.indices, filters, through, starts),
+                        regression_rows(z, skip, starts)[:, : model.p])
+        else:                       # a long record: its problems in row blocks, in bounded memory
+            problems = lambda: regressor_blocks(z, model.indices, filters, through, starts)  # noqa: E731
+        factor, record = matrix_covariance(problems, model.indices, model.C, model.D, through, form.D,
+                                           breaks=row_breaks(starts, z.shape[0], skip))
         attached = copy.deepcopy(model)
         attached.cov_factor, attached.info["covariance"] = factor, record
         return attached
-    form = observer_form(model)
-    through = _feedthrough_rows(model, form)
-    check_regression_rows(data.bounds, model.indices, model.m, bool(through.any()))
-    filters = model.divisors if model.divisors is not None else divisors(model.alpha, model.indices)
-    z, starts, skip = np.concatenate([y, u], axis=1), data.segment_starts, max(model.indices)
-    if row_count(data.bounds, skip) <= WHOLE_ROWS:
-        problems = (output_regressors(z, model.indices, filters, through, starts),
-                    regression_rows(z, skip, starts)[:, : model.p])
-    else:                       # a long record: its problems in row blocks, in bounded memory
-        problems = lambda: regressor_blocks(z, model.indices, filters, through, starts)  # noqa: E731
-    factor, record = matrix_covariance(problems, model.indices, model.C, model.D, through, form.D,
-                                       breaks=row_breaks(starts, z.shape[0], skip))
-    attached = copy.deepcopy(model)
-    attached.cov_factor, attached.info["covariance"] = factor, record
-    return attached

@@ -29,6 +29,7 @@ from ...validation.prediction import deviations, predicted_deviations
 from ...validation.whitening import fit_ar
 from ...numerics.triangular import column_norms, tall_factor
 from ...validation.prediction import NEGLIGIBLE_FREE_RESPONSE, fit_free_response
+from ...numerics.blas_threads import limited_blas
 
 __all__ = ["estimate_noise_model"]
 
@@ -209,43 +210,44 @@ def estimate_noise_model(model: StateSpaceModel, data: IOData) -> StateSpaceMode
     >>> np.round(noisy.K, 1), np.round(np.sqrt(noisy.noise_cov), 1)
     (array([[0.6]]), array([[0.3]]))
     """
-    if not isinstance(model, StateSpaceModel):
-        raise DataError(f"model must be a StateSpaceModel, got {type(model).__name__}")
-    if not model.is_stable():
-        raise DataError("the noise model needs a stable model: its simulation error grows without bound")
-    whole = data
-    # the AR fit and the innovations run through time: one continuous stretch, the longest
-    data = longest_segment(data) if isinstance(data, IOData) else data
-    u, y = deviations(model, data)
-    N, p = y.shape
-    order = min(MAX_AR_ORDER, (N - ROWS_PER_PARAMETER * p) // (ROWS_PER_PARAMETER * p + 1))
-    if order < 1:  # N < 2 ROWS_PER_PARAMETER p + 1
-        raise DataError(f"data must have at least {2 * ROWS_PER_PARAMETER * p + 1} samples to "
-                        f"estimate a noise model, got {N}")
-    e = y - model.simulate(u)
-    ar = fit_ar(e, order)
-    # the AR residuals start at sample ``ar.start``; the regression's free state absorbs
-    # everything before it
-    K = _gain_regression(model.A, model.C, e[ar.start :] - ar.residuals, ar.residuals)
-    start = "regression"
-    if _spectral_radius(model.A - K @ model.C) >= 1.0:
-        cov = ar.residuals.T @ ar.residuals / ar.residuals.shape[0]
-        stable = _stabilizing_gain(model.A, model.C, K, cov)
-        K, start = (stable, "spectral factor") if stable is not None else (np.zeros_like(K), "output error")
-    K, steps = _prediction_error_steps(model.A, model.C, K, e)
-    if not _significant(model.A, model.C, K, e):
-        K, start = np.zeros_like(K), "white simulation error"
-    attached = copy.deepcopy(model)  # keeps every field of the model, whatever it holds
-    attached.K = K
-    yhat, _ = predicted_deviations(attached, u, y, 1, "estimate")
-    errors = y - yhat
-    cov = errors.T @ errors / N
-    attached.noise_cov = 0.5 * (cov + cov.T)  # symmetric to the last bit
-    attached.info["noise_model"] = {
-        "method": "prediction error", "start": start, "ar_order": ar.order, "gauss_newton_steps": steps,
-        "predictor_radius": _spectral_radius(model.A - K @ model.C),
-    }
-    if whole.n_segments > 1:
-        attached.info["noise_model"]["segment"] = list(whole.bounds).index(
-            max(whole.bounds, key=lambda bound: bound[1] - bound[0]))
-    return attached
+    with limited_blas():
+        if not isinstance(model, StateSpaceModel):
+            raise DataError(f"model must be a StateSpaceModel, got {type(model).__name__}")
+        if not model.is_stable():
+            raise DataError("the noise model needs a stable model: its simulation error grows without bound")
+        whole = data
+        # the AR fit and the innovations run through time: one continuous stretch, the longest
+        data = longest_segment(data) if isinstance(data, IOData) else data
+        u, y = deviations(model, data)
+        N, p = y.shape
+        order = min(MAX_AR_ORDER, (N - ROWS_PER_PARAMETER * p) // (ROWS_PER_PARAMETER * p + 1))
+        if order < 1:  # N < 2 ROWS_PER_PARAMETER p + 1
+            raise DataError(f"data must have at least {2 * ROWS_PER_PARAMETER * p + 1} samples to "
+                            f"estimate a noise model, got {N}")
+        e = y - model.simulate(u)
+        ar = fit_ar(e, order)
+        # the AR residuals start at sample ``ar.start``; the regression's free state absorbs
+        # everything before it
+        K = _gain_regression(model.A, model.C, e[ar.start :] - ar.residuals, ar.residuals)
+        start = "regression"
+        if _spectral_radius(model.A - K @ model.C) >= 1.0:
+            cov = ar.residuals.T @ ar.residuals / ar.residuals.shape[0]
+            stable = _stabilizing_gain(model.A, model.C, K, cov)
+            K, start = (stable, "spectral factor") if stable is not None else (np.zeros_like(K), "output error")
+        K, steps = _prediction_error_steps(model.A, model.C, K, e)
+        if not _significant(model.A, model.C, K, e):
+            K, start = np.zeros_like(K), "white simulation error"
+        attached = copy.deepcopy(model)  # keeps every field of the model, whatever it holds
+        attached.K = K
+        yhat, _ = predicted_deviations(attached, u, y, 1, "estimate")
+        errors = y - yhat
+        cov = errors.T @ errors / N
+        attached.noise_cov = 0.5 * (cov + cov.T)  # symmetric to the last bit
+        attached.info["noise_model"] = {
+            "method": "prediction error", "start": start, "ar_order": ar.order, "gauss_newton_steps": steps,
+            "predictor_radius": _spectral_radius(model.A - K @ model.C),
+        }
+        if whole.n_segments > 1:
+            attached.info["noise_model"]["segment"] = list(whole.bounds).index(
+                max(whole.bounds, key=lambda bound: bound[1] - bound[0]))
+        return attached

@@ -1,0 +1,84 @@
+"""One BLAS thread inside moli's computations, the caller's setting restored after.
+
+moli's arithmetic is thousands of small factorizations and products (hundreds of rows by tens
+of columns, long records folded in blocks of 2048 rows), too small for a multi-threaded BLAS
+to share out. Between two such calls OpenBLAS's idle threads go to sleep, and waking them
+costs more than the call itself: with the default thread count of a 2-core machine, idle
+otherwise, the likelihood's QR factors of ``moli.impulse_response`` on the built-in example
+took 4 ms each instead of 0.15 ms, and the call 10.3 s instead of 0.79 s (docs/performance.md,
+"BLAS threads"). Every public computation of moli therefore runs with BLAS limited to one
+thread (threadpoolctl), which is also how the benchmarks run, so a user gets the arithmetic
+the benchmarks measured. ``MOLI_BLAS_THREADS`` sets another limit (a positive integer), or
+``keep`` leaves the process's BLAS threads as they are.
+
+The limit is process-wide while it holds (BLAS has no per-thread setting): it is set by the
+first of concurrent moli calls to enter and restored by the last to leave. Each public function
+holds it around its body, not by a decorator, so that its warnings still point at its caller.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import threading
+from typing import Any, Iterator
+
+from ..errors import OptionError
+
+__all__ = ["ENVIRONMENT_VARIABLE", "blas_thread_limit", "limited_blas"]
+
+ENVIRONMENT_VARIABLE = "MOLI_BLAS_THREADS"
+KEEP = "keep"
+
+_lock = threading.Lock()
+_depth = 0
+_limiter: Any = None
+_controller: Any = None
+
+
+def blas_thread_limit() -> int | None:
+    """The BLAS thread limit of moli's computations: ``$MOLI_BLAS_THREADS``, 1 when unset, None for ``keep``.
+
+    Raises
+    ------
+    OptionError
+        The variable holds something else than a positive integer or ``keep``.
+    """
+    text = os.environ.get(ENVIRONMENT_VARIABLE, "1").strip()
+    if text.lower() == KEEP:
+        return None
+    if not (text.isascii() and text.isdigit()) or int(text) < 1:
+        raise OptionError(f"the environment variable {ENVIRONMENT_VARIABLE} must be a positive integer "
+                          f"(BLAS threads inside moli's computations) or {KEEP!r} (leave BLAS as it is), "
+                          f"got {text!r}")
+    return int(text)
+
+
+def _threadpool_controller() -> Any:
+    """threadpoolctl's view of the BLAS libraries loaded, built once (numpy's and scipy's are loaded by then)."""
+    global _controller
+    if _controller is None:
+        from threadpoolctl import ThreadpoolController
+
+        _controller = ThreadpoolController()
+    return _controller
+
+
+@contextlib.contextmanager
+def limited_blas() -> Iterator[None]:
+    """BLAS limited to :func:`blas_thread_limit` threads while the block runs (nested blocks: the outermost decides)."""
+    global _depth, _limiter
+    limit = blas_thread_limit()
+    with _lock:
+        if _depth == 0 and limit is not None:
+            _limiter = _threadpool_controller().limit(limits=limit, user_api="blas")
+        _depth += 1
+    try:
+        yield
+    finally:
+        with _lock:
+            _depth -= 1
+            if _depth == 0 and _limiter is not None:
+                _limiter.restore_original_limits()
+                _limiter = None
+
