@@ -55,9 +55,11 @@ def blas_thread_limit() -> int | None:
 
 
 def _threadpool_controller() -> Any:
-    """threadpoolctl's view of the BLAS libraries loaded, built once (numpy's and scipy's are loaded by then)."""
+    """threadpoolctl's view of the BLAS libraries loaded, built once, with numpy's and scipy's loaded
+    (each wheel carries its own OpenBLAS; a library loaded after it is built would go unlimited)."""
     global _controller
     if _controller is None:
+        import scipy.linalg  # noqa: F401
         from threadpoolctl import ThreadpoolController
 
         _controller = ThreadpoolController()
