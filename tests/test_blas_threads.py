@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import os
+import signal
 import threading
+import time
 
 import numpy as np
 import pytest
+import threadpoolctl
 from threadpoolctl import threadpool_info, threadpool_limits
 
 import moli
@@ -55,7 +59,7 @@ def test_the_environment_sets_another_limit_or_keeps_the_callers(two_threads, re
     assert blas_threads() == two_threads
 
 
-@pytest.mark.parametrize("value", ["0", "-1", "1.5", "abc", "", "²"])
+@pytest.mark.parametrize("value", ["0", "-1", "1.5", "abc", "", "²", "1025", "2147483648", "99999999999999999999"])
 def test_a_bad_setting_is_refused_before_any_work(value, record, monkeypatch):
     monkeypatch.setenv(ENVIRONMENT_VARIABLE, value)
     calls = []
@@ -67,6 +71,8 @@ def test_a_bad_setting_is_refused_before_any_work(value, record, monkeypatch):
 def test_unset_means_one_thread(monkeypatch):
     monkeypatch.delenv(ENVIRONMENT_VARIABLE, raising=False)
     assert blas_thread_limit() == 1
+    monkeypatch.setenv(ENVIRONMENT_VARIABLE, " KEEP ")
+    assert blas_thread_limit() is None
 
 
 def test_nested_and_concurrent_calls_restore_the_callers_threads(two_threads, record):
@@ -109,3 +115,101 @@ def test_the_same_model_whatever_the_callers_threads(record):
 def test_the_command_line_refuses_a_bad_setting_in_one_line(monkeypatch, tmp_path):
     monkeypatch.setenv(ENVIRONMENT_VARIABLE, "many")
     assert_clean_error(run("demo", "--out", str(tmp_path / "demo")), ENVIRONMENT_VARIABLE)
+
+
+def in_thread(work):
+    """Run ``work`` on a new thread and return what it returned (re-raising what it raised)."""
+    out: list = []
+
+    def run():
+        try:
+            out.append(("ok", work()))
+        except BaseException as exc:  # noqa: BLE001 (re-raised below, in the test's thread)
+            out.append(("error", exc))
+
+    worker = threading.Thread(target=run)
+    worker.start()
+    worker.join()
+    kind, value = out[0]
+    if kind == "error":
+        raise value
+    return value
+
+
+def test_a_call_on_another_thread_after_one_on_this_thread_is_limited_too(record):
+    # threadpoolctl (3.8 on) lets one thread own OpenBLAS's shared pool: a moli call must not keep it
+    if not blas_threads():
+        pytest.skip("threadpoolctl finds no BLAS library to limit in this environment")
+    caller = threadpool_limits(2, user_api="blas")      # this thread sets the pool, and owns it
+    try:
+        threads_seen_by_identify(record)
+        seen = in_thread(lambda: threads_seen_by_identify(record))
+        assert seen and all(threads == {1} for threads in seen)
+        # the caller's own limits, on yet another thread, still take
+        assert in_thread(lambda: _limited_elsewhere(3)) == {3}
+    finally:
+        release = getattr(getattr(threadpoolctl, "OpenBLASController", None), "clear_controlling_thread", None)
+        if release is not None:
+            release(force=True)
+        caller.restore_original_limits()
+
+
+def _limited_elsewhere(n: int) -> set[int]:
+    with threadpool_limits(n, user_api="blas"):
+        return blas_threads()
+
+
+def test_overlapping_calls_on_two_threads_give_the_callers_threads_back(two_threads, record):
+    first_in = threading.Event()
+    second_done = threading.Event()
+    seen: list[set[int]] = []
+
+    def first():                 # enters first, leaves first, and its thread lives on after the call
+        def hold(step):
+            first_in.set()
+            seen.append(blas_threads())
+        moli.identify(*record, nmax=4, preset="fast", progress=hold)
+        second_done.wait(60)
+
+    def second():                # enters while the first call runs, leaves last
+        first_in.wait(60)
+        moli.identify(*record, nmax=4, preset="fast", progress=lambda step: seen.append(blas_threads()))
+        second_done.set()
+
+    workers = [threading.Thread(target=first), threading.Thread(target=second)]
+    for worker in workers:
+        worker.start()
+    for worker in workers:
+        worker.join()
+    assert seen and all(threads == {1} for threads in seen)
+    assert blas_threads() == two_threads
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="os.fork is POSIX only")
+def test_a_child_forked_while_a_call_holds_the_lock_still_runs(record):
+    # the lock held by another thread at the fork would otherwise never be released in the child
+    import moli.numerics.blas_threads as blas
+
+    with blas._lock:
+        pid = os.fork()
+        if pid == 0:             # the child: one moli call, then out without pytest's cleanup
+            try:
+                moli.compare(moli.identify(*record, nmax=4, preset="fast").model, record[1])
+                os._exit(0)
+            except BaseException:  # noqa: BLE001 (the exit code says it failed)
+                os._exit(1)
+    # a child stuck on the lock is killed after 60 s (the call itself takes well under one)
+    deadline = time.monotonic() + 60.0
+    while (done := os.waitpid(pid, os.WNOHANG))[0] == 0 and time.monotonic() < deadline:
+        time.sleep(0.05)
+    if done[0] == 0:
+        os.kill(pid, signal.SIGKILL)
+        os.waitpid(pid, 0)
+        pytest.fail("the forked child hung on moli's BLAS lock")
+    assert os.waitstatus_to_exitcode(done[1]) == 0
+
+
+def test_identify_many_refuses_a_bad_setting_before_any_record(record, monkeypatch):
+    monkeypatch.setenv(ENVIRONMENT_VARIABLE, "none")
+    with pytest.raises(moli.OptionError, match=ENVIRONMENT_VARIABLE):
+        moli.identify_many({"a": record[0]}, n_jobs=2, progress=False)

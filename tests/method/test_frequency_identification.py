@@ -181,8 +181,9 @@ def test_an_unstable_system_is_fitted_as_it_is_when_max_radius_is_none_and_mirro
                                     np.zeros(1), (0.0,))
     omega = np.logspace(-1, 2, 300)
     data = FrequencyData(omega, unstable.frequency_response(omega), unit="rad/s")
-    with pytest.warns(moli.UnstableModelWarning, match="unstable"):
+    with pytest.warns(moli.UnstableModelWarning, match="unstable") as caught:
         free = moli.identify(data, max_radius=None, order=2).model
+    assert caught[0].filename == __file__           # it points at the caller of identify
     assert np.allclose(sorted_poles(free), sorted_poles(unstable), rtol=EXACT)
     assert moli.identify(data, order=2).model.is_stable()
 

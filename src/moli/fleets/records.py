@@ -32,7 +32,7 @@ from ..method.options import IdentifyOptions
 from ..models.continuous import ContinuousModel
 from .warning_capture import thread_warnings
 from ..models.statespace import StateSpaceModel
-from ..numerics.blas_threads import limited_blas
+from ..numerics.blas_threads import blas_thread_limit, limited_blas
 from ..validation.comparison import compare
 from .backends import NO_WORKER_TIMEOUT, RecordTimeoutError, run_calls
 from .record_paths import absolute_paths, as_given
@@ -265,6 +265,7 @@ def identify_many(
     if isinstance(no_worker_timeout, bool) or not isinstance(no_worker_timeout, (int, float)) \
             or not no_worker_timeout > 0:
         raise OptionError(f"no_worker_timeout must be a positive number of seconds, got {no_worker_timeout!r}")
+    blas_thread_limit()     # a bad MOLI_BLAS_THREADS refused here, not as every record's error on process workers
     with run_calls(_identify_one, calls, executor, n_jobs, no_worker_timeout, timeout) as (backend, done), \
             _reporting(progress, len(calls)) as tell:
         for index, entry, lost in done:

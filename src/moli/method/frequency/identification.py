@@ -194,8 +194,9 @@ def identify_frequency(
     if not model.is_stable():          # only with max_radius=None: the refinement keeps the bound otherwise
         worst = (f"largest real part {np.max(model.poles().real):.4g}" if domain.continuous
                  else f"largest pole modulus {np.max(np.abs(model.poles())):.4g}")
+        # pointing at the caller of moli.identify: here, identify_frequency, routes.frequency_route, identify
         warnings.warn(UnstableModelWarning(f"the model fitted to the frequency data is unstable ({worst}), as "
-                                           "max_radius=None allows"), stacklevel=3)
+                                           "max_radius=None allows"), stacklevel=4)
     return FrequencyResult(model=model, path=path, selected_index=index, options=options, held_out=held_out,
                            seconds=time.perf_counter() - start_time, covariance_note=note,
                            path_models=[_physical(data, domain, matrices(each.layout, each.theta), None,
