@@ -7,6 +7,7 @@ Ctrl-C while the command's libraries load (most of a second on a cold start) is 
 
 from __future__ import annotations
 
+import _thread
 import atexit
 import contextlib
 import os
@@ -148,6 +149,26 @@ def _end_at_once_on_interrupt(status: int) -> None:
         signal.signal(signal.SIGINT, end)
 
 
+def _redeliver_lost_interrupts(previous: Any) -> Any:
+    """A ``sys.unraisablehook`` that sends Ctrl-C again when Python had to drop it.
+
+    Ctrl-C that lands inside a finalizer or weakref callback (the import system's module-lock
+    callbacks, most of all) cannot propagate: Python prints it as "Exception ignored" with a
+    traceback and the run goes on as if no Ctrl-C had come. The signal is raised again from another
+    thread, so that its handler runs once the callback has returned; every other unraisable
+    exception goes to ``previous``.
+    """
+
+    def hook(unraisable: Any) -> None:
+        if isinstance(unraisable.exc_value, BaseException) and is_interrupt(unraisable.exc_value):
+            # not raised here: an exception from the hook itself would be dropped the same way
+            _thread.start_new_thread(signal.raise_signal, (signal.SIGINT,))
+            return
+        previous(unraisable)
+
+    return hook
+
+
 def main() -> None:
     """Entry point of the ``moli`` console script and of ``python -m moli``."""
     global _owns_process
@@ -155,6 +176,7 @@ def main() -> None:
     # registered first, so run last of the exit handlers: Ctrl-C after them, while the interpreter
     # restores the default handler and exits, would end the process by the signal instead of the code
     atexit.register(stop_interrupts)
+    sys.unraisablehook = _redeliver_lost_interrupts(sys.unraisablehook)
     code: Any = COMPLETE
     try:
         from .cli import main as run_command   # click, numpy, scipy: most of a second on a cold start
