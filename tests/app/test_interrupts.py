@@ -25,10 +25,12 @@ INPUTS, OUTPUTS = "u1,u2,u3", "y1,y2,y3"
 # the path 3, 4, 5 with the order fixed at 4: a search to interrupt, and a model whose order says
 # how far the run got (4 when complete, 3 when the search was cut after its first order)
 FIT = ["--inputs", INPUTS, "--outputs", OUTPUTS, "--nmax", "5", "--order", "4"]
-# the console script's own two lines: import its entry point and call it. "ready" first, so that the
-# moments are drawn from when the interpreter has started (its own start-up, importing the site
-# packages, is Python's and prints Python's traceback whatever the program)
-LAUNCH = ("import sys; print('ready', flush=True); from moli.app.console import main; "
+# the console script's own two lines: import its entry point and call it. "ready" in between, so that
+# the moments are drawn from when the entry point runs: before it, Python's start-up (the site
+# packages) and the import of the entry point's module (about 4 ms: the package's __init__ and
+# console.py, which import nothing heavy) run no code of moli's that could set a handler, and Ctrl-C
+# there is Python's traceback whatever the program (docs/cli.md)
+LAUNCH = ("import sys; from moli.app.console import main; print('ready', flush=True); "
           "sys.argv[0] = 'moli'; main()")
 
 

@@ -7,7 +7,6 @@ Ctrl-C while the command's libraries load (most of a second on a cold start) is 
 
 from __future__ import annotations
 
-import _thread
 import atexit
 import contextlib
 import os
@@ -154,17 +153,29 @@ def _redeliver_lost_interrupts(previous: Any) -> Any:
 
     Ctrl-C that lands inside a finalizer or weakref callback (the import system's module-lock
     callbacks, most of all) cannot propagate: Python prints it as "Exception ignored" with a
-    traceback and the run goes on as if no Ctrl-C had come. The signal is raised again from another
-    thread, so that its handler runs once the callback has returned; every other unraisable
-    exception goes to ``previous``.
+    traceback and the run goes on as if no Ctrl-C had come. A thread raises SIGINT again once the
+    hook has returned: raised while the hook runs, the KeyboardInterrupt would be dropped the same
+    way. The thread is not a daemon, so the interpreter waits for it before it shuts down (a thread
+    still ending then can crash the interpreter). Every other unraisable exception goes to
+    ``previous``.
     """
 
     def hook(unraisable: Any) -> None:
-        if isinstance(unraisable.exc_value, BaseException) and is_interrupt(unraisable.exc_value):
-            # not raised here: an exception from the hook itself would be dropped the same way
-            _thread.start_new_thread(signal.raise_signal, (signal.SIGINT,))
+        if not (isinstance(unraisable.exc_value, BaseException) and is_interrupt(unraisable.exc_value)):
+            previous(unraisable)
             return
-        previous(unraisable)
+        returned = threading.Event()
+
+        def send_again() -> None:
+            returned.wait()
+            signal.raise_signal(signal.SIGINT)
+
+        try:
+            threading.Thread(target=send_again, name="moli-ctrl-c", daemon=False).start()
+        except RuntimeError:    # the interpreter is shutting down: the run's exit code is settled
+            pass
+        finally:
+            returned.set()
 
     return hook
 
