@@ -160,8 +160,8 @@ def _redeliver_lost_interrupts(previous: Any) -> Any:
     callbacks, most of all) cannot propagate: Python prints it as "Exception ignored" with a
     traceback and the run goes on as if no Ctrl-C had come. A thread raises SIGINT again once the
     hook has returned: raised while the hook runs, the KeyboardInterrupt would be dropped the same
-    way. The thread is not a daemon, so the interpreter waits for it before it shuts down (a thread
-    still ending then can crash the interpreter). Every other unraisable exception goes to
+    way. The thread is not a daemon, so the interpreter joins it before it shuts down instead of
+    tearing itself down under a thread still running. Every other unraisable exception goes to
     ``previous``.
     """
 
