@@ -34,6 +34,11 @@ LAUNCH = ("import sys; from moli.app.console import main; print('ready', flush=T
           "sys.argv[0] = 'moli'; main()")
 
 
+def console_environment() -> dict[str, str]:
+    """A fresh process's environment: this moli, one BLAS thread."""
+    return {**os.environ, "PYTHONPATH": str(Path(moli.__file__).parents[1]), "OPENBLAS_NUM_THREADS": "1"}
+
+
 def run(*args: str) -> Result:
     return CliRunner().invoke(cli.cli, list(args), prog_name="moli")
 
@@ -49,9 +54,8 @@ def _fit_process(folder: Path, moment: float | None) -> tuple[int, str, float]:
     """``moli fit`` in a fresh process, Ctrl-C (SIGINT) ``moment`` seconds after it started;
     its exit code, stderr and seconds."""
     shutil.rmtree(folder / "run", ignore_errors=True)
-    env = {**os.environ, "PYTHONPATH": str(Path(moli.__file__).parents[1]), "OPENBLAS_NUM_THREADS": "1"}
     process = subprocess.Popen([sys.executable, "-c", LAUNCH, "fit", "plant.csv", *FIT, "--out", "run/model.json",
-                                "--report", "run/report"], cwd=folder, env=env, text=True,
+                                "--report", "run/report"], cwd=folder, env=console_environment(), text=True,
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE)
     assert process.stdout.readline() == "ready\n"
     started = time.perf_counter()
@@ -146,8 +150,7 @@ def test_ctrl_c_while_the_console_script_imports_its_libraries_is_one_line_and_e
            "                raise ImportError('initialization failed') from cut\n"
            "sys.meta_path.insert(0, Cut())\n"
            "from moli.app.console import main; sys.argv[0] = 'moli'; main()")
-    env = {**os.environ, "PYTHONPATH": str(Path(moli.__file__).parents[1])}
-    done = subprocess.run([sys.executable, "-c", cut, "fit", "plant.csv", *FIT], cwd=folder, env=env,
+    done = subprocess.run([sys.executable, "-c", cut, "fit", "plant.csv", *FIT], cwd=folder, env=console_environment(),
                           capture_output=True, text=True, timeout=120)
     assert (done.returncode, done.stderr) == (130, "moli: interrupted\n")
 
@@ -165,9 +168,8 @@ def _fit_after_a_dropped(exception: str, folder: Path) -> subprocess.CompletedPr
             "            lock = Lock(); ref = weakref.ref(lock, callback); del lock; gc.collect()\n"
             "sys.meta_path.insert(0, Dropped())\n"
             "from moli.app.console import main; sys.argv[0] = 'moli'; main()")
-    env = {**os.environ, "PYTHONPATH": str(Path(moli.__file__).parents[1]), "OPENBLAS_NUM_THREADS": "1"}
     return subprocess.run([sys.executable, "-c", drop, "fit", "plant.csv", *FIT, "--out", "model.json"], cwd=folder,
-                          env=env, capture_output=True, text=True, timeout=120)
+                          env=console_environment(), capture_output=True, text=True, timeout=120)
 
 
 def test_ctrl_c_that_python_drops_in_a_callback_still_interrupts(folder):
